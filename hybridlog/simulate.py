@@ -493,7 +493,7 @@ LATEST_S = 9.2e9
 :func:`hybridlog.io.source.seconds_to_ns`), and MCAP files and ROS 2 bags store them so."""
 
 
-def _check_run(model: HybridModel, rows: int, where: str, log_format: str | None) -> None:
+def check_run(model: HybridModel, rows: int, where: str, log_format: str | None) -> None:
     """Refuse up front a run that ends later than its log holds, or cannot fit in memory.
 
     Either names the option or model key that set the number of steps.  ``log_format``: of
@@ -522,7 +522,8 @@ def _check_run(model: HybridModel, rows: int, where: str, log_format: str | None
     )
 
 
-def _check_seed(seed: object) -> int:
+def check_seed(seed: object) -> int:
+    """``seed`` as an ``int``, refused unless it is a whole number of at least 0."""
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
         raise OptionError("--seed: must be a non-negative integer")
     return int(seed)
@@ -687,7 +688,7 @@ def simulate(
         A bad ``[simulation]`` table, a row where no guard holds, a diverging run, or
         ``noise`` on a model whose file gives no measurement noise covariance.
     """
-    seed = _check_seed(seed)
+    seed = check_seed(seed)
     origin = _origin(model)
     if model.is_continuous:
         model.check_supported("simulate", continuous=True, jumps=True)
@@ -721,7 +722,7 @@ def simulate(
         if steps is not None and steps <= 0:
             raise OptionError("--steps: must be positive")
         rows = (steps or 100) + 1
-        _check_run(model, rows, "--steps", log_format)
+        check_run(model, rows, "--steps", log_format)
         modes = np.zeros(rows, dtype=np.int64)
     else:
         if schedule is not None:  # given, if empty: refused, never the model's schedule
@@ -734,11 +735,11 @@ def simulate(
         if steps is not None and steps <= 0:
             raise OptionError("--steps: must be positive")
         if steps is not None:
-            _check_run(model, steps + 1, "--steps", log_format)
+            check_run(model, steps + 1, "--steps", log_format)
         else:
             total = sum(count for _, count in parsed)
             where = "--schedule" if schedule is not None else f"{origin}: simulation.schedule"
-            _check_run(model, total + 1, where, log_format)
+            check_run(model, total + 1, where, log_format)
         modes = mode_sequence(parsed, steps)
     n_rows = modes.shape[0]
     time = sample_times(n_rows, model.dt)

@@ -163,15 +163,15 @@ def simulate_components(
     """
     from hybridlog.model.scenario import StepValues, check_timing
     from hybridlog.simulate import (
-        _check_run,
-        _check_seed,
+        check_run,
+        check_seed,
         out_of_range,
         sample_times,
         start_state,
         within_range,
     )
 
-    seed = _check_seed(seed)
+    seed = check_seed(seed)
     origin = _origin(model)
     scenario = model.scenario
     if not model.has_components or scenario is None:
@@ -193,7 +193,7 @@ def simulate_components(
     n_steps = steps or scenario.steps or 100
     rows = n_steps + 1
     where = "--steps" if steps else f"{origin}: simulation.steps"
-    _check_run(model, rows, where, log_format)
+    check_run(model, rows, where, log_format)
 
     labels = _mode_labels(model, scenario, rows, at)
     overrides = _overrides(model, scenario, rows, at, labels)

@@ -1,10 +1,10 @@
 """``header.stamp``: read a batch at a time, checked, and described beside the log times.
 
-What ``--time header`` reads (:func:`_read_stamps`, fast for ROS integer stamps,
-:func:`_integer_stamps`), what it refuses (stamps left at 0, :func:`_refuse_unset_stamps`) and
-what ``inspect`` says of a topic's stamps (:class:`_Stamps`): their span, their median offset
-from the log times (:func:`_median_offset`) and the problems ``--time header`` would meet.
-A bad value is raised as a :class:`_RowError` naming its row in the decoded part, as the topic
+What ``--time header`` reads (:func:`read_stamps`, fast for ROS integer stamps,
+:func:`integer_stamps`), what it refuses (stamps left at 0, :func:`refuse_unset_stamps`) and
+what ``inspect`` says of a topic's stamps (:class:`HeaderStamps`): their span, their median offset
+from the log times (:func:`median_offset`) and the problems ``--time header`` would meet.
+A bad value is raised as a :class:`RowError` naming its row in the decoded part, as the topic
 reader's paths are.
 """
 
@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from hybridlog.errors import LogError
-from hybridlog.io.json_schemas import _json_kind
+from hybridlog.io.json_schemas import json_kind
 from hybridlog.io.message_paths import PathError, Step, check_path, evaluate, stamp_ns
 from hybridlog.io.message_topics import Topic
 from hybridlog.io.options import FAR_STAMP_S
@@ -26,7 +26,7 @@ from hybridlog.signals import IntArray
 HEADER_STAMP: tuple[Step, ...] = ("header", "stamp")
 
 
-def _may_have_stamps(topic: Topic) -> bool:
+def may_have_stamps(topic: Topic) -> bool:
     """Whether ``topic``'s messages may carry ``header.stamp`` (its definition does not deny it).
 
     A ROS message's definition says; a JSON schema that lists no ``header.stamp`` among the
@@ -42,16 +42,16 @@ def _may_have_stamps(topic: Topic) -> bool:
         return False
     if topic.json_schema is not None:
         try:
-            _json_kind(topic.json_schema, HEADER_STAMP)
+            json_kind(topic.json_schema, HEADER_STAMP)
         except PathError:
             return False
     return True
 
 
-class _Stamps:
+class HeaderStamps:
     """The ``header.stamp`` of a topic's messages beside their log times, for ``inspect``.
 
-    What ``--time header`` reads (:func:`_read_stamps`): a stamp that is no time ends the
+    What ``--time header`` reads (:func:`read_stamps`): a stamp that is no time ends the
     reading, ``problem`` saying why in ``analyze``'s words.  A JSON topic whose definition
     does not list ``header.stamp`` and whose first message has none has no stamps
     (``absent``), as ``analyze`` refuses it at that message.
@@ -59,7 +59,7 @@ class _Stamps:
 
     def __init__(self, topic: Topic) -> None:
         self.topic = topic
-        self.integers = _integer_stamps(topic)
+        self.integers = integer_stamps(topic)
         self.stamps: list[IntArray] = []
         self.log_times: list[IntArray] = []
         self.problem: str | None = None
@@ -71,8 +71,8 @@ class _Stamps:
             return
         stamps = np.empty(len(messages), dtype=np.int64)
         try:
-            _read_stamps(messages, stamps, self.integers)
-        except _RowError as err:
+            read_stamps(messages, stamps, self.integers)
+        except RowError as err:
             if not self.stamps and not err.row and not self._listed():
                 self.absent = True  # a JSON topic whose messages carry no stamp
                 return
@@ -92,7 +92,7 @@ class _Stamps:
         schema = self.topic.json_schema
         if self.topic.typedefs is not None:
             return True
-        return schema is not None and _json_kind(schema, HEADER_STAMP) is not None
+        return schema is not None and json_kind(schema, HEADER_STAMP) is not None
 
     def describe(self, path: str) -> tuple[dict[str, Any] | None, list[str]]:
         """A topic's ``header_stamp`` in ``inspect`` (``None``: no stamps) and its problems.
@@ -100,17 +100,17 @@ class _Stamps:
         ``start`` and ``end``: the earliest and latest stamp; ``offset``: the median of stamp
         minus log time (both in seconds); ``count``: the stamps read.  The problems say what
         ``--time header`` would refuse or do unasked: stamps left at 0
-        (:func:`_refuse_unset_stamps`), stamps going backwards in log-time order, a stamp
+        (:func:`refuse_unset_stamps`), stamps going backwards in log-time order, a stamp
         that is no time, and stamps further than :data:`FAR_STAMP_S` from the log times.
         """
         problems = [] if self.problem is None else [self.problem]
-        log_times = _concat_int(self.log_times)
+        log_times = concat_int(self.log_times)
         if self.absent or not log_times.size:
             return None, problems
         order = np.argsort(log_times, kind="stable")
-        stamps = _concat_int(self.stamps)[order]
+        stamps = concat_int(self.stamps)[order]
         log_times = log_times[order]
-        offset = _median_offset(stamps, log_times)
+        offset = median_offset(stamps, log_times)
         entry = {
             "start": seconds_of(stamps.min()),
             "end": seconds_of(stamps.max()),
@@ -119,7 +119,7 @@ class _Stamps:
         }
         name = self.topic.name
         try:
-            _refuse_unset_stamps(path, name, stamps, log_times)
+            refuse_unset_stamps(path, name, stamps, log_times)
         except LogError as err:
             problems.append(str(err).removeprefix(f"{path}: "))
             return entry, problems  # zeros among stamps go backwards: said once
@@ -144,7 +144,7 @@ class _Stamps:
         return entry, problems
 
 
-def _refuse_unset_stamps(path: str, topic: str, stamps: IntArray, log_times: IntArray) -> None:
+def refuse_unset_stamps(path: str, topic: str, stamps: IntArray, log_times: IntArray) -> None:
     """Refuse ``--time header`` on a topic whose ``header.stamp`` is 0 in several messages.
 
     A publisher that never fills the header sends 0 in every message; a zero can be a real
@@ -174,7 +174,7 @@ def _refuse_unset_stamps(path: str, topic: str, stamps: IntArray, log_times: Int
     )
 
 
-class _RowError(Exception):
+class RowError(Exception):
     """A :class:`PathError` of the message at ``row`` of a decoded part."""
 
     def __init__(self, row: int, error: PathError) -> None:
@@ -183,7 +183,7 @@ class _RowError(Exception):
         self.error = error
 
 
-def _median_offset(stamps: IntArray, log_times: IntArray) -> int:
+def median_offset(stamps: IntArray, log_times: IntArray) -> int:
     """The (lower) median of ``stamps - log_times`` in whole nanoseconds; 0 for none."""
     if stamps.size == 0:
         return 0
@@ -200,11 +200,11 @@ _STAMP_SEC = operator.attrgetter("header.stamp.sec")
 _STAMP_NANOSEC = operator.attrgetter("header.stamp.nanosec")
 
 
-def _integer_stamps(topic: Topic) -> bool:
+def integer_stamps(topic: Topic) -> bool:
     """Whether ``topic``'s definition makes ``header.stamp`` ``sec`` and ``nanosec`` integers.
 
     ROS 1 ``time`` and ROS 2 ``builtin_interfaces/Time`` (rosbags decodes both so): their
-    stamps are read a batch at a time (:func:`_read_stamps`), where ``np.fromiter`` would
+    stamps are read a batch at a time (:func:`read_stamps`), where ``np.fromiter`` would
     truncate a float and parse a string of another definition.
     """
     if topic.typedefs is None:
@@ -219,10 +219,10 @@ def _integer_stamps(topic: Topic) -> bool:
         return False
 
 
-def _read_stamps(messages: list[object], out: IntArray, integers: bool = False) -> None:
-    """Fill ``out`` with the messages' ``header.stamp``; a :class:`_RowError` names a bad one.
+def read_stamps(messages: list[object], out: IntArray, integers: bool = False) -> None:
+    """Fill ``out`` with the messages' ``header.stamp``; a :class:`RowError` names a bad one.
 
-    With ``integers`` (:func:`_integer_stamps`) the seconds and nanoseconds are read at C
+    With ``integers`` (:func:`integer_stamps`) the seconds and nanoseconds are read at C
     speed (a third of ``inspect``'s time on a ``PointStamped`` log, read one by one); a
     nanosecond count that is no fraction of a second sends the part through
     :func:`~hybridlog.io.message_paths.stamp_ns`, which names it.
@@ -238,10 +238,11 @@ def _read_stamps(messages: list[object], out: IntArray, integers: bool = False) 
         try:
             out[row] = stamp_ns(evaluate(message, HEADER_STAMP))
         except PathError as err:
-            raise _RowError(row, err) from None
+            raise RowError(row, err) from None
 
 
-def _concat_int(parts: list[IntArray]) -> IntArray:
+def concat_int(parts: list[IntArray]) -> IntArray:
+    """``parts`` end to end as one ``int64`` array (empty for none)."""
     if not parts:
         return np.zeros(0, dtype=np.int64)
     result: IntArray = np.concatenate(parts).astype(np.int64)

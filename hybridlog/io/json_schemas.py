@@ -1,9 +1,9 @@
 """What a JSON message's schema says: the type of a path, its leaves, its required keys.
 
 MCAP's ``json`` encoding may carry a JSON schema per topic (:func:`parse_json_schema`); a
-mapped path is checked against it before reading (:func:`_json_kind`), its fields are listed
-for ``inspect`` (:func:`_json_leaves`, no deeper than :data:`MAX_JSON_DEPTH`), and a message
-without a key it lists as ``required`` is refused (:func:`_json_required`).
+mapped path is checked against it before reading (:func:`json_kind`), its fields are listed
+for ``inspect`` (:func:`json_leaves`, no deeper than :data:`MAX_JSON_DEPTH`), and a message
+without a key it lists as ``required`` is refused (:func:`json_required`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ is reported as a problem of the topic, never cut silently.  Real documents are a
 deep; this guards the walk (Python's recursion) against a pathological one."""
 
 
-def _json_required(schema: Mapping[str, Any], steps: Sequence[Step]) -> bool:
+def json_required(schema: Mapping[str, Any], steps: Sequence[Step]) -> bool:
     """Whether a JSON schema lists the last key of ``steps`` as ``required`` in its object."""
     node: Any = schema
     for depth, step in enumerate(steps):
@@ -48,7 +48,7 @@ def parse_json_schema(data: bytes) -> Mapping[str, Any] | None:
     return schema if isinstance(schema, dict) else None
 
 
-def _json_kind(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
+def json_kind(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
     """What ``steps`` name in a JSON schema, or ``None`` where the schema does not say."""
     return {
         "number": "number",
@@ -57,10 +57,10 @@ def _json_kind(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
         "string": "string",
         "object": "message",
         "array": "array",
-    }.get(str(_json_type(schema, steps)))
+    }.get(str(json_type(schema, steps)))
 
 
-def _json_type(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
+def json_type(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
     """The JSON type a schema gives ``steps`` (``"integer"``, ...), or ``None`` if none."""
     node: Any = schema
     done: list[Step] = []
@@ -99,7 +99,7 @@ class _JsonLeaves:
     too_deep: str | None
 
 
-def _json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
+def json_leaves(schema: Mapping[str, Any]) -> _JsonLeaves:
     """The numeric and text leaves of a JSON schema's objects, at any depth.
 
     Arrays of numbers, booleans or text are leaves (``.name[]``), as a single one is; the

@@ -1,9 +1,9 @@
 """The values of decoded JSON messages: numbers as written, counts, keys left out.
 
-A number too large for a float64 kept with its text (:class:`_BeyondFloat`), so that
+A number too large for a float64 kept with its text (:class:`BeyondFloat`), so that
 ``analyze`` refuses it as written; ``inspect``'s walk over a JSON message counting its numbers,
-non-finite values, nulls, text and integers a float64 does not hold (:func:`_count_json`);
-and where a message of sparse signals leaves out a key of a path (:func:`_absent_key`).
+non-finite values, nulls, text and integers a float64 does not hold (:func:`count_json`);
+and where a message of sparse signals leaves out a key of a path (:func:`absent_key`).
 """
 
 from __future__ import annotations
@@ -18,37 +18,37 @@ from hybridlog.io.json_schemas import MAX_JSON_DEPTH
 from hybridlog.io.message_paths import Step, spell_field
 
 
-class _BeyondFloat(float):
+class BeyondFloat(float):
     """A JSON number too large for a float64: infinite, with the text it was written as."""
 
     written: str
 
 
-def _float_or_written(text: str) -> float:
+def float_or_written(text: str) -> float:
     """``json``'s ``parse_float`` keeping the text of a number that overflows to infinity."""
     value = float(text)
     if math.isfinite(value):
         return value
-    beyond = _BeyondFloat(value)
+    beyond = BeyondFloat(value)
     beyond.written = text
     return beyond
 
 
-def _int_or_written(text: str) -> int | float:
+def int_or_written(text: str) -> int | float:
     """``json``'s ``parse_int``: an integer beyond a float64's range kept as its text."""
     value = int(text)
     try:
         float(value)
     except OverflowError:
-        beyond = _BeyondFloat(math.inf if value > 0 else -math.inf)
+        beyond = BeyondFloat(math.inf if value > 0 else -math.inf)
         beyond.written = text
         return beyond
     return value
 
 
 @dataclass(frozen=True)
-class _JsonFound:
-    """What :func:`_count_json` notes of one JSON message beyond its counts."""
+class JsonFound:
+    """What :func:`count_json` notes of one JSON message beyond its counts."""
 
     unheld: dict[str, str]
     """Path -> why the first integer there is not held by a float64 (beyond 2^53)."""
@@ -60,13 +60,13 @@ class _JsonFound:
     """The paths outside arrays holding a boolean."""
 
 
-def _count_json(
+def count_json(
     value: object,
     path: str,
     counts: dict[str, list[int]],
     fields: dict[str, None],
     depth: int,
-    found: _JsonFound,
+    found: JsonFound,
 ) -> str | None:
     """Add the numbers of a decoded JSON value to ``counts``; ``[]`` marks array elements.
 
@@ -82,7 +82,7 @@ def _count_json(
         return path or "the message"
     if isinstance(value, Mapping):
         for key, item in value.items():
-            too_deep = _count_json(
+            too_deep = count_json(
                 item, f"{path}.{spell_field(key)}", counts, fields, depth + 1, found
             )
             if too_deep is not None:
@@ -102,7 +102,7 @@ def _count_json(
             _note_json_unheld(numbers, f"{path}[]", found.unheld)
         for item in value:
             if isinstance(item, Mapping | list):
-                too_deep = _count_json(item, f"{path}[]", counts, fields, depth + 1, found)
+                too_deep = count_json(item, f"{path}[]", counts, fields, depth + 1, found)
                 if too_deep is not None:
                     return too_deep
     elif _is_json_number(value) and path:
@@ -153,7 +153,7 @@ def _is_nonfinite(value: object) -> bool:
     return isinstance(value, float) and not math.isfinite(value)
 
 
-def _absent_key(message: object, steps: Sequence[Step]) -> tuple[int, list[str]] | None:
+def absent_key(message: object, steps: Sequence[Step]) -> tuple[int, list[str]] | None:
     """Where a decoded JSON message leaves out a key of ``steps``: ``(step index, its keys)``.
 
     ``None`` when every key is there (what is wrong is then something else: an index out of

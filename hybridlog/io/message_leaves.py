@@ -2,9 +2,9 @@
 
 :func:`~hybridlog.io.message_paths.leaves` stops at an array of messages; ``inspect`` lists and
 counts the leaves of its elements as well (``/tf.transforms[].transform.translation.x``):
-:func:`_deep_leaves` finds them in a definition, :func:`_elements` and :func:`_leaf_values`
-read them from decoded messages, :func:`_first_unheld` finds an integer a float64 does not
-hold.
+:func:`deep_leaves` finds them in a definition, :func:`array_elements` and
+:func:`message_leaf_values` read them from decoded messages, :func:`first_unheld` finds an
+integer a float64 does not hold.
 """
 
 from __future__ import annotations
@@ -35,13 +35,13 @@ WIDE_INTEGER_TYPES = frozenset(("int64", "uint64"))
 """ROS integer types whose values may lie beyond 2^53, which a ``float64`` does not hold."""
 
 
-def _first_unheld(messages: list[object], leaf: _DeepLeaf) -> tuple[int, str] | None:
+def first_unheld(messages: list[object], leaf: DeepLeaf) -> tuple[int, str] | None:
     """The first of ``messages`` whose ``leaf`` holds an integer a float64 does not hold.
 
     Its row and why (:func:`~hybridlog.io.exact.inexact`); ``None`` when there is none.
     """
     for row, message in enumerate(messages):
-        for element in _elements([message], leaf.arrays):
+        for element in array_elements([message], leaf.arrays):
             value = evaluate(element, leaf.leaf.steps)  # as decoded: ints, not floats
             items = np.ravel(np.asarray(value)).tolist() if leaf.leaf.array else [value]
             for item in items:
@@ -51,7 +51,7 @@ def _first_unheld(messages: list[object], leaf: _DeepLeaf) -> tuple[int, str] | 
     return None
 
 
-def _leaf_values(messages: list[object], leaf: Leaf) -> FloatArray:
+def message_leaf_values(messages: list[object], leaf: Leaf) -> FloatArray:
     """The numbers of ``leaf`` in decoded messages, arrays concatenated, as ``float64``."""
     get = accessor(leaf.steps)
     try:
@@ -65,7 +65,7 @@ def _leaf_values(messages: list[object], leaf: Leaf) -> FloatArray:
 
 
 @dataclass(frozen=True)
-class _DeepLeaf:
+class DeepLeaf:
     """A numeric or text leaf of a ROS message, possibly inside arrays of messages.
 
     ``arrays``: the steps to each array of messages on the way to it (from the message, then
@@ -82,7 +82,7 @@ class _DeepLeaf:
         return "".join(format_steps(steps) + "[]" for steps in self.arrays) + self.leaf.text
 
 
-def _deep_leaves(typedefs: Typedefs, msgtype: str) -> list[_DeepLeaf]:
+def deep_leaves(typedefs: Typedefs, msgtype: str) -> list[DeepLeaf]:
     """The numeric and text leaves of ``msgtype``, inside arrays of messages too.
 
     :func:`~hybridlog.io.message_paths.leaves` stops at an array of messages (a path into one
@@ -90,10 +90,10 @@ def _deep_leaves(typedefs: Typedefs, msgtype: str) -> list[_DeepLeaf]:
     ``/tf.transforms[].transform.translation.x``) and ``inspect`` counts their values.  An
     element type already on the way is not followed into itself.
     """
-    out: list[_DeepLeaf] = []
+    out: list[DeepLeaf] = []
 
     def walk(type_name: str, arrays: tuple[tuple[str, ...], ...], within: frozenset[str]) -> None:
-        out.extend(_DeepLeaf(arrays, leaf) for leaf in leaves(typedefs, type_name))
+        out.extend(DeepLeaf(arrays, leaf) for leaf in leaves(typedefs, type_name))
         for steps, element in _message_arrays(typedefs, type_name):
             if element not in within:
                 walk(element, (*arrays, steps), within | {element})
@@ -121,7 +121,7 @@ def _message_arrays(typedefs: Typedefs, msgtype: str) -> list[tuple[tuple[str, .
     return out
 
 
-def _elements(messages: list[object], arrays: tuple[tuple[str, ...], ...]) -> list[object]:
+def array_elements(messages: list[object], arrays: tuple[tuple[str, ...], ...]) -> list[object]:
     """Every element of the arrays of messages ``arrays`` lead to in ``messages``, in order."""
     items = messages
     for steps in arrays:

@@ -3,7 +3,7 @@
 :class:`Topic` is what a reader of messages says of each topic (its type, encoding, count,
 definition and decoder).  Its fields are listed as message paths after the topic name; where
 nested topics (``/a`` and ``/a.b``) make one path alike, or where another topic would read it
-first, the path is spelled with its topic quoted (:func:`_shared_paths`, :func:`_spell`).
+first, the path is spelled with its topic quoted (:func:`shared_paths`, :func:`spelt_path`).
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from hybridlog.io.json_schemas import _json_leaves
-from hybridlog.io.message_leaves import _deep_leaves
+from hybridlog.io.json_schemas import json_leaves
+from hybridlog.io.message_leaves import deep_leaves
 from hybridlog.io.message_paths import FLOAT_TYPES, MessagePath, PathError, Typedefs, split_paths
 
 
@@ -59,7 +59,7 @@ class Topic:
         return f"{self.name!r} ({self.msgtype or 'no type'})"
 
 
-def _shared_paths(leaves: Mapping[str, Sequence[str]]) -> set[str]:
+def shared_paths(leaves: Mapping[str, Sequence[str]]) -> set[str]:
     """Paths of ``{topic: leaves}`` that must be written with their topic quoted.
 
     Those two topics make alike (``/a`` + ``.b.v``, ``/a.b`` + ``.v``), and those that
@@ -102,12 +102,12 @@ def _extensions(ordered: Sequence[str], name: str) -> list[str]:
     return found
 
 
-def _spell(topic: str, leaf: str, shared: set[str]) -> str:
+def spelt_path(topic: str, leaf: str, shared: set[str]) -> str:
     """``topic + leaf``, with the topic quoted (``"/a".b.v``) where another topic makes it too."""
     return f'"{topic}"{leaf}' if topic + leaf in shared else topic + leaf
 
 
-def _foxglove_form(path: MessagePath) -> bool:
+def foxglove_form(path: MessagePath) -> bool:
     """Whether ``path`` follows its topic with ``.field`` or ``[index]`` (not the ``/`` alias)."""
     text = path.text.strip()
     quoted = f'"{path.topic}"'
@@ -115,20 +115,20 @@ def _foxglove_form(path: MessagePath) -> bool:
     return not rest.startswith("/")
 
 
-def _topic_fields(topic: Topic) -> list[str]:
+def topic_fields(topic: Topic) -> list[str]:
     """The paths (after the topic name) of the numeric and text leaves its definition has."""
     if topic.typedefs is not None and topic.msgtype in topic.typedefs:
-        return [leaf.text for leaf in _deep_leaves(topic.typedefs, topic.msgtype)]
+        return [leaf.text for leaf in deep_leaves(topic.typedefs, topic.msgtype)]
     if topic.json_schema is not None:
-        return _json_leaves(topic.json_schema).leaves
+        return json_leaves(topic.json_schema).leaves
     return []
 
 
-def _field_hint(topic: Topic) -> str:
+def field_hint(topic: Topic) -> str:
     """How to name a field of ``topic``: an example it has, else why none can be given."""
-    fields = _topic_fields(topic)
+    fields = topic_fields(topic)
     if topic.typedefs is not None and topic.msgtype in topic.typedefs:
-        found = _deep_leaves(topic.typedefs, topic.msgtype)
+        found = deep_leaves(topic.typedefs, topic.msgtype)
         fields = [leaf.text for leaf in found if leaf.leaf.type_name in FLOAT_TYPES] or fields
     if fields:
         example = topic.name + fields[0].replace("[]", "[0]")

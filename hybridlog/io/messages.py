@@ -14,7 +14,7 @@ everything else is here and in the modules named below:
   (:data:`~hybridlog.io.topic_reader.DECODED_AT_ONCE`), so memory grows with the selected
   signals, not with the file; where every path is a number field of such a message, each
   message is reduced to its numbers as it is decoded, none kept
-  (``topic_reader._TopicReader._add_numbers_streamed``).
+  (``topic_reader.TopicReader._add_numbers_streamed``).
   A message that cannot be decoded or read is named by its log time.
 - Time: ``--time log`` (default) takes the recorder's log time.  Messages are taken in log-time
   order, the order every ROS and MCAP player replays them; files read sequentially are put in
@@ -55,7 +55,7 @@ import numpy as np
 from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import first_line
 from hybridlog.io.header_stamps import HEADER_STAMP
-from hybridlog.io.json_schemas import MAX_JSON_DEPTH, _json_kind, _json_leaves
+from hybridlog.io.json_schemas import MAX_JSON_DEPTH, json_kind, json_leaves
 from hybridlog.io.message_paths import (
     MessagePath,
     PathError,
@@ -66,17 +66,17 @@ from hybridlog.io.message_paths import (
 )
 from hybridlog.io.message_topics import (
     Topic,
-    _field_hint,
-    _foxglove_form,
-    _shared_paths,
-    _spell,
-    _topic_fields,
+    field_hint,
+    foxglove_form,
+    shared_paths,
+    spelt_path,
+    topic_fields,
 )
 from hybridlog.io.options import ReadOptions
 from hybridlog.io.source import FieldKey, LabelSeries, Reading, Series, SourceInfo, seconds_of
 from hybridlog.io.summary import describe_steps
-from hybridlog.io.topic_reader import _TopicReader
-from hybridlog.io.value_counter import _ValueCounter
+from hybridlog.io.topic_reader import TopicReader
+from hybridlog.io.value_counter import ValueCounter
 from hybridlog.signals import IntArray
 
 BATCH_MESSAGES = 65_536
@@ -202,11 +202,11 @@ class MessageSource(abc.ABC):
 
     def fields(self) -> tuple[str, ...]:
         """Numeric and text leaves of every topic's messages, as message paths."""
-        leaves = {name: _topic_fields(self._topics[name]) for name in sorted(self._topics)}
-        shared = _shared_paths(leaves)
+        leaves = {name: topic_fields(self._topics[name]) for name in sorted(self._topics)}
+        shared = shared_paths(leaves)
         out: list[str] = []
         for name, found in leaves.items():
-            out.extend([_spell(name, leaf, shared) for leaf in found] or [name])
+            out.extend([spelt_path(name, leaf, shared) for leaf in found] or [name])
         return tuple(out)
 
     def explain_missing(self, name: str, numeric: bool = False) -> str | None:
@@ -274,7 +274,7 @@ class MessageSource(abc.ABC):
                 fitting.append(path)
         if not fitting:  # the longest reading failed: its error
             raise errors[0]
-        foxglove = [p for p in fitting if _foxglove_form(p)]
+        foxglove = [p for p in fitting if foxglove_form(p)]
         fitting = foxglove or fitting  # the /field alias only where Foxglove's form fits none
         if len(fitting) > 1:
             spelled = [
@@ -307,13 +307,13 @@ class MessageSource(abc.ABC):
                 target = check_path(topic.typedefs, topic.msgtype, path.steps)
                 kind, type_name = target.kind, target.type_name
             elif topic.json_schema is not None:
-                kind = _json_kind(topic.json_schema, path.steps)
+                kind = json_kind(topic.json_schema, path.steps)
                 type_name = kind or ""
         except PathError as err:
             raise PathError(f"{text!r}: {err}") from None
         if not path.steps:
             raise PathError(
-                f"{text!r} names a whole message of topic {topic.label}; {_field_hint(topic)}"
+                f"{text!r} names a whole message of topic {topic.label}; {field_hint(topic)}"
             )
         if kind == "message":
             raise PathError(
@@ -338,7 +338,7 @@ class MessageSource(abc.ABC):
             backwards or repeat (without ``--sort``), a count that differs from the index.
         """
         header = self.options.time == "header"
-        readers: dict[str, _TopicReader] = {}
+        readers: dict[str, TopicReader] = {}
         for text, want in [*((t, "number") for t in numeric), *((t, "label") for t in labels)]:
             try:
                 path = self.resolve(text, want)
@@ -349,7 +349,7 @@ class MessageSource(abc.ABC):
             if reader is None:
                 if header:
                     self._check_header(topic)
-                reader = readers[topic.name] = _TopicReader(self, topic, header)
+                reader = readers[topic.name] = TopicReader(self, topic, header)
             reader.want(text, path, want)
         if not readers:
             return Reading({}, {}, dict(self._notes))
@@ -387,11 +387,11 @@ class MessageSource(abc.ABC):
                 raise LogError(f"{self.path}: {missing}")
         elif topic.json_schema is not None:
             try:
-                _json_kind(topic.json_schema, HEADER_STAMP)
+                json_kind(topic.json_schema, HEADER_STAMP)
             except PathError:
                 raise LogError(f"{self.path}: {missing}") from None
 
-    def _collect(self, readers: dict[str, _TopicReader]) -> None:
+    def _collect(self, readers: dict[str, TopicReader]) -> None:
         """One pass over the file, handing batches of raw messages to the topic readers."""
         buffers: dict[str, tuple[list[bytes], list[int], list[int]]] = {
             name: ([], [], [0]) for name in readers
@@ -416,7 +416,7 @@ class MessageSource(abc.ABC):
         One pass over every topic's messages: their log times are collected, and the
         messages of topics with fields that can hold NaN or infinities, or with
         ``header.stamp``, are decoded (512 at a time) to count those values and read the
-        stamps (see :class:`_ValueCounter`).
+        stamps (see :class:`ValueCounter`).
 
         Returns
         -------
@@ -431,7 +431,7 @@ class MessageSource(abc.ABC):
             earliest log time, of the messages that could not be decoded while others were,
             whose fields, values and stamps these are; else ``None``), ``header_stamp``
             (what ``--time header`` reads: ``start, end, offset, count``,
-            :meth:`~hybridlog.io.header_stamps._Stamps.describe`; ``None`` for a topic
+            :meth:`~hybridlog.io.header_stamps.HeaderStamps.describe`; ``None`` for a topic
             without ``header.stamp``) and ``fields``), ``time`` (``start, end, duration``
             over all messages, or ``None``), ``problems`` and ``reading`` (what reading did,
             e.g. recovery).  Times are seconds as floats.  ``nonfinite`` and ``values`` are
@@ -443,7 +443,7 @@ class MessageSource(abc.ABC):
         counters = {
             name: counter
             for name, topic in self._topics.items()
-            if (counter := _ValueCounter.of(topic)) is not None
+            if (counter := ValueCounter.of(topic)) is not None
         }
         try:
             for topic_name, log_time, data in self._messages(set(self._topics)):
@@ -472,7 +472,7 @@ class MessageSource(abc.ABC):
             if topic.problem:
                 problems.append(f"topic {topic.label}: {topic.problem}")
             elif topic.json_schema is not None and topic.typedefs is None:
-                too_deep = _json_leaves(topic.json_schema).too_deep
+                too_deep = json_leaves(topic.json_schema).too_deep
                 if too_deep is not None:
                     problems.append(
                         f"topic {topic.label}: its JSON schema nests deeper than "
@@ -487,7 +487,7 @@ class MessageSource(abc.ABC):
             values: list[dict[str, Any]] | None = None  # not known: not decodable
             skipped: dict[str, Any] | None = None  # messages not decoded among others
             header_stamp: dict[str, Any] | None = None
-            fields = _topic_fields(topic)
+            fields = topic_fields(topic)
             counter = counters.get(name)
             if counter is not None:
                 values = counter.result()
@@ -516,17 +516,17 @@ class MessageSource(abc.ABC):
                     "fields": fields,
                 }
             )
-        shared = _shared_paths({t["name"]: t["fields"] for t in topics})
+        shared = shared_paths({t["name"]: t["fields"] for t in topics})
         for entry in topics:  # a path two nested topics make alike: its topic quoted
             name = entry["name"]
-            entry["fields"] = [_spell(name, leaf, shared) for leaf in entry["fields"]]
+            entry["fields"] = [spelt_path(name, leaf, shared) for leaf in entry["fields"]]
             for value in entry["values"] or []:
-                value["name"] = _spell(name, value["name"].removeprefix(name), shared)
+                value["name"] = spelt_path(name, value["name"].removeprefix(name), shared)
             counter = counters.get(name)
             if counter is not None and entry["values"] is not None:
                 # what analyze refuses when the field is mapped, said before it is
                 problems.extend(
-                    f"{excerpt(_spell(name, path, shared))}: {text}"
+                    f"{excerpt(spelt_path(name, path, shared))}: {text}"
                     for path, text in {**counter.unheld, **counter.mixed()}.items()
                 )
         total = sum(t["count"] for t in topics)

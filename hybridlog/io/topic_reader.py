@@ -1,9 +1,9 @@
 """One topic's wanted message paths: batches decoded into values, then series in time order.
 
-:class:`_TopicReader` takes a topic's batches of serialised messages from
+:class:`TopicReader` takes a topic's batches of serialised messages from
 :meth:`~hybridlog.io.messages.MessageSource.read` and reduces each to the wanted numbers and
 labels (one-``float64`` messages at once, :func:`~hybridlog.io.fixed_messages.single_floats`;
-number fields as each message is decoded, :meth:`_TopicReader._add_numbers_streamed`; else
+number fields as each message is decoded, :meth:`TopicReader._add_numbers_streamed`; else
 :data:`DECODED_AT_ONCE` messages at a time, naming a bad message by its log time), then makes
 them series in time order (log time or ``header.stamp``; ``--sort`` and duplicate times; JSON
 fields only some messages carry read at their own times).
@@ -23,15 +23,15 @@ from hybridlog.errors import LogError, excerpt
 from hybridlog.io.exact import EXACT_LIMIT, beyond_exact, inexact
 from hybridlog.io.fixed_messages import single_floats
 from hybridlog.io.header_stamps import (
-    _concat_int,
-    _integer_stamps,
-    _median_offset,
-    _read_stamps,
-    _refuse_unset_stamps,
-    _RowError,
+    RowError,
+    concat_int,
+    integer_stamps,
+    median_offset,
+    read_stamps,
+    refuse_unset_stamps,
 )
-from hybridlog.io.json_schemas import _json_required, _json_type
-from hybridlog.io.json_values import _absent_key, _BeyondFloat, _float_or_written, _int_or_written
+from hybridlog.io.json_schemas import json_required, json_type
+from hybridlog.io.json_values import BeyondFloat, absent_key, float_or_written, int_or_written
 from hybridlog.io.message_leaves import WIDE_INTEGER_TYPES
 from hybridlog.io.message_paths import (
     NUMERIC_TYPES,
@@ -65,7 +65,7 @@ again: a ``PointStamped`` MCAP of 3·10^5 messages read in 2.07 s, against 1.52 
 512 (1.60 s in parts of 1,024; the same with 256).  A part this small dies young; smaller
 still, fewer of its messages outlive the collector's first generation (700 objects): with
 ``--time header`` (``header.stamp`` read, so not the streamed numbers of
-``_TopicReader._add_numbers_streamed``) 10^5 messages a topic took 2.31-2.65 s of CPU in parts
+``TopicReader._add_numbers_streamed``) 10^5 messages a topic took 2.31-2.65 s of CPU in parts
 of 128 against 2.52-2.71 s in parts of 512 (alternating, three runs each, a loaded machine)."""
 
 
@@ -80,7 +80,7 @@ class _Wanted:
     booleans: bool | None = None
     """JSON: whether this path's values are ``true``/``false`` (``None`` before the first)."""
     present: list[np.ndarray[Any, np.dtype[np.bool_]]] = field(default_factory=list)
-    """JSON: per batch, which messages carry the path (see :func:`_absent_key`)."""
+    """JSON: per batch, which messages carry the path (see :func:`absent_key`)."""
     sparse: bool = False
     """JSON: whether some message lacks the path (it is then read from those that carry it)."""
     keys_seen: dict[str, None] = field(default_factory=dict)
@@ -93,7 +93,7 @@ _HELD_EXACTLY = NUMERIC_TYPES - WIDE_INTEGER_TYPES
 """ROS primitive types whose every value a ``float64`` holds (all but the 64-bit integers)."""
 
 
-class _TopicReader:
+class TopicReader:
     """Collects the wanted paths of one topic, batch by batch."""
 
     def __init__(self, source: MessageSource, topic: Topic, header: bool) -> None:
@@ -113,9 +113,10 @@ class _TopicReader:
         aligns topics whose offsets differ by :data:`~hybridlog.io.options.FAR_STAMP_S` or
         more on clocks that disagree (report.md says so).
         """
-        return _median_offset(_concat_int(self.stamps), _concat_int(self.log_times))
+        return median_offset(concat_int(self.stamps), concat_int(self.log_times))
 
     def want(self, text: str, path: MessagePath, kind: str) -> None:
+        """Read the path ``text`` of the messages as ``kind``, ``number`` or ``label`` (once)."""
         if not any(w.text == text and w.kind == kind for w in self.wanted):
             self.wanted.append(_Wanted(text, path, kind))
             self._streamed = None
@@ -137,7 +138,7 @@ class _TopicReader:
         json = self.topic.encoding == "json"
         present = [np.ones(count, dtype=np.bool_) if json else None for _ in self.wanted]
         stamps = np.empty(count, dtype=np.int64) if self.header else None
-        integers = stamps is not None and _integer_stamps(self.topic)
+        integers = stamps is not None and integer_stamps(self.topic)
         for first in range(0, count, DECODED_AT_ONCE):
             try:
                 messages = self._decode(datas[first : first + DECODED_AT_ONCE])
@@ -158,7 +159,7 @@ class _TopicReader:
                             self._refuse_overflow(wanted, values[part], datas, times, first)
                     else:
                         self._read_labels(messages, wanted, labels, here)
-                except _RowError as err:
+                except RowError as err:
                     reason = str(err.error)
                     if not reason.startswith(("the message", ".", "[")):
                         reason = f"the value {reason}"
@@ -168,8 +169,8 @@ class _TopicReader:
                     ) from None
             if stamps is not None:
                 try:
-                    _read_stamps(messages, stamps[part], integers)
-                except _RowError as err:
+                    read_stamps(messages, stamps[part], integers)
+                except RowError as err:
                     reason = str(err.error)  # "is 1.7e+18 s ...", or what the path lacks
                     said = f" {reason}" if reason.startswith(("is ", "has ")) else f": {reason}"
                     raise LogError(
@@ -305,12 +306,12 @@ class _TopicReader:
         for row in infinite[:16].tolist():  # a file of Infinity tokens is not decoded anew
             try:
                 message = json.loads(
-                    datas[first + row], parse_float=_float_or_written, parse_int=_int_or_written
+                    datas[first + row], parse_float=float_or_written, parse_int=int_or_written
                 )
                 value = evaluate(message, wanted.path.steps)
             except (ValueError, PathError):
                 continue  # decoded once already: the first decoding said what was wrong
-            if isinstance(value, _BeyondFloat):
+            if isinstance(value, BeyondFloat):
                 index = self.count + first + row + 1
                 raise LogError(
                     f"{self.source.path}: topic {self.topic.label}, field {wanted.text!r}: "
@@ -334,12 +335,12 @@ class _TopicReader:
         out: FloatArray,
         present: np.ndarray[Any, np.dtype[np.bool_]] | None = None,
     ) -> None:
-        """Fill ``out`` with the numbers ``wanted`` names; a :class:`_RowError` names a bad one.
+        """Fill ``out`` with the numbers ``wanted`` names; a :class:`RowError` names a bad one.
 
         A boolean is read as 0/1 (a ROS ``bool``), but in JSON, which has both, only where
         the path holds nothing else: ``true`` where the schema declares a number, or amid
         numbers, is refused rather than read as 1.  A JSON message without the path's key
-        (:func:`_absent_key`) is marked in ``present`` and given no value.
+        (:func:`absent_key`) is marked in ``present`` and given no value.
         """
         steps = wanted.path.steps
         values = self._numbers(messages, steps)
@@ -349,7 +350,7 @@ class _TopicReader:
             for row in np.flatnonzero(beyond_exact(values)).tolist():
                 reason = inexact(get(messages[row]))
                 if reason is not None:
-                    raise _RowError(row, PathError(reason))
+                    raise RowError(row, PathError(reason))
             return
         json = self.topic.encoding == "json"
         for row, message in enumerate(messages):  # the careful loop, which names what is wrong
@@ -372,7 +373,7 @@ class _TopicReader:
                 if reason is not None:
                     raise PathError(reason)
             except PathError as err:
-                raise _RowError(row, err) from None
+                raise RowError(row, err) from None
 
     def _read_labels(
         self,
@@ -394,7 +395,7 @@ class _TopicReader:
                     continue
                 out.append(as_label(value))
             except PathError as err:
-                raise _RowError(row, err) from None
+                raise RowError(row, err) from None
 
     def _absent(self, message: object, wanted: _Wanted) -> bool:
         """Whether a JSON message leaves out a key of ``wanted``'s path (not required).
@@ -409,7 +410,7 @@ class _TopicReader:
         PathError
             For a key the schema requires.
         """
-        found = _absent_key(message, wanted.path.steps)
+        found = absent_key(message, wanted.path.steps)
         if found is None:
             return False
         depth, keys = found
@@ -417,7 +418,7 @@ class _TopicReader:
         for key in keys[:64]:
             wanted.keys_seen.setdefault(key, None)
         schema = self.topic.json_schema
-        if schema is not None and _json_required(schema, wanted.path.steps[: depth + 1]):
+        if schema is not None and json_required(schema, wanted.path.steps[: depth + 1]):
             step = wanted.path.steps[depth]
             raise PathError(
                 f"{format_steps(wanted.path.steps[:depth]) or 'the message'} has no field "
@@ -450,7 +451,7 @@ class _TopicReader:
         boolean = isinstance(value, bool)
         if wanted.booleans is None:
             schema = self.topic.json_schema
-            declared = None if schema is None else _json_type(schema, wanted.path.steps)
+            declared = None if schema is None else json_type(schema, wanted.path.steps)
             if boolean and declared in ("number", "integer"):
                 raise PathError(
                     f"is a boolean ({str(value).lower()}) where the schema declares a {declared}"
@@ -482,8 +483,8 @@ class _TopicReader:
 
     def series(self) -> tuple[dict[str, Series], dict[str, LabelSeries]]:
         """The wanted paths as series, in time order (see the module docstring)."""
-        log_times = _concat_int(self.log_times)
-        all_times = _concat_int(self.stamps) if self.header else log_times
+        log_times = concat_int(self.log_times)
+        all_times = concat_int(self.stamps) if self.header else log_times
         shared: tuple[IntArray, Any, Any] | None = None
         numbers: dict[str, Series] = {}
         labels: dict[str, LabelSeries] = {}
@@ -583,7 +584,7 @@ class _TopicReader:
         word = "header.stamp" if self.header else "log time"
         order: IntArray | None = None
         if self.header:
-            _refuse_unset_stamps(source.path, topic.name, time_ns, log_times)
+            refuse_unset_stamps(source.path, topic.name, time_ns, log_times)
         self._refuse_one_time(time_ns, f"{what}{among}")
         steps = np.diff(time_ns)
         backwards = steps < 0
@@ -663,4 +664,4 @@ def _merge_labels(
             [merged.setdefault(c, len(merged)) for c in batch_categories], dtype=np.int64
         )
         parts.append(lookup[batch_codes] if lookup.size else batch_codes)
-    return _concat_int(parts), tuple(merged)
+    return concat_int(parts), tuple(merged)

@@ -1,10 +1,10 @@
 """``inspect``'s counts of a topic's values: non-finite ones, integers a float64 does not hold.
 
-:class:`_ValueCounter` is fed a topic's serialised messages by
+:class:`ValueCounter` is fed a topic's serialised messages by
 :meth:`~hybridlog.io.messages.MessageSource.describe` and decodes them in parts
 (:data:`~hybridlog.io.topic_reader.DECODED_AT_ONCE` messages, at most
 :data:`DECODED_BYTES_AT_ONCE` bytes), counting per field what ``analyze`` would refuse and
-reading the stamps (:class:`~hybridlog.io.header_stamps._Stamps`).
+reading the stamps (:class:`~hybridlog.io.header_stamps.HeaderStamps`).
 """
 
 from __future__ import annotations
@@ -15,16 +15,16 @@ from typing import Any
 
 from hybridlog.errors import excerpt
 from hybridlog.io.exact import beyond_exact
-from hybridlog.io.header_stamps import _may_have_stamps, _Stamps
+from hybridlog.io.header_stamps import HeaderStamps, may_have_stamps
 from hybridlog.io.json_schemas import MAX_JSON_DEPTH
-from hybridlog.io.json_values import _count_json, _JsonFound
+from hybridlog.io.json_values import JsonFound, count_json
 from hybridlog.io.message_leaves import (
     WIDE_INTEGER_TYPES,
-    _deep_leaves,
-    _DeepLeaf,
-    _elements,
-    _first_unheld,
-    _leaf_values,
+    DeepLeaf,
+    array_elements,
+    deep_leaves,
+    first_unheld,
+    message_leaf_values,
 )
 from hybridlog.io.message_paths import FLOAT_TYPES, PathError, UndecodableError, decode_each
 from hybridlog.io.message_topics import Topic
@@ -38,7 +38,7 @@ images of 6 MiB held at once, decoded for their stamps, made ``inspect`` of a 3.
 peak at 6.3 GB (19.5 s, against 84 MB and 4.9 s before stamps were read)."""
 
 
-class _ValueCounter:
+class ValueCounter:
     """Counts the values of a topic's fields that can hold NaN or infinities, and those that do.
 
     For :meth:`~hybridlog.io.messages.MessageSource.describe`: fed the topic's serialised
@@ -57,7 +57,7 @@ class _ValueCounter:
     So is a JSON field that holds a number in some messages and text in others, which
     ``analyze`` refuses as a number at the first text (:meth:`mixed`).  The messages of a
     topic that may carry ``header.stamp`` are decoded for their stamps too (``stamps``,
-    :class:`_Stamps`), whether or not it has fields to count.
+    :class:`HeaderStamps`), whether or not it has fields to count.
 
     Parameters
     ----------
@@ -73,14 +73,14 @@ class _ValueCounter:
     def __init__(
         self,
         topic: Topic,
-        float_leaves: list[_DeepLeaf] | None,
-        wide_leaves: Sequence[_DeepLeaf] = (),
+        float_leaves: list[DeepLeaf] | None,
+        wide_leaves: Sequence[DeepLeaf] = (),
     ) -> None:
         self.topic = topic
         self.leaves = float_leaves
         self.wide = wide_leaves
         self.problem: str | None = None
-        self.stamps = _Stamps(topic) if _may_have_stamps(topic) else None
+        self.stamps = HeaderStamps(topic) if may_have_stamps(topic) else None
         # field path after the topic -> the first value beyond 2^53 a float64 does not hold
         self.unheld: dict[str, str] = {}
         self._datas: list[bytes] = []
@@ -101,7 +101,7 @@ class _ValueCounter:
         self._first_undecodable: tuple[int, str] | None = None  # its log time and why
 
     @classmethod
-    def of(cls, topic: Topic) -> _ValueCounter | None:
+    def of(cls, topic: Topic) -> ValueCounter | None:
         """A counter for ``topic``, or ``None`` when its messages cannot be decoded.
 
         A topic whose definition has no floating-point field gets a counter that decodes
@@ -113,7 +113,7 @@ class _ValueCounter:
             return cls(topic, None)
         if topic.typedefs is None or topic.msgtype not in topic.typedefs:
             return None
-        found = _deep_leaves(topic.typedefs, topic.msgtype)
+        found = deep_leaves(topic.typedefs, topic.msgtype)
         return cls(
             topic,
             [leaf for leaf in found if leaf.leaf.type_name in FLOAT_TYPES],
@@ -231,13 +231,13 @@ class _ValueCounter:
                 unheld: dict[str, str] = {}
                 texts: set[str] = set()
                 booleans: set[str] = set()
-                too_deep = _count_json(
+                too_deep = count_json(
                     message,
                     "",
                     self._counts,
                     self.fields,
                     0,
-                    _JsonFound(unheld, texts, self._nulls, booleans),
+                    JsonFound(unheld, texts, self._nulls, booleans),
                 )
                 for path, reason in unheld.items():
                     self._note_unheld(path, reason, times[row])
@@ -258,8 +258,8 @@ class _ValueCounter:
         for leaf in self.leaves:
             try:
                 if leaf.arrays not in elements:
-                    elements[leaf.arrays] = _elements(messages, leaf.arrays)
-                values = _leaf_values(elements[leaf.arrays], leaf.leaf)
+                    elements[leaf.arrays] = array_elements(messages, leaf.arrays)
+                values = message_leaf_values(elements[leaf.arrays], leaf.leaf)
             except (PathError, ValueError) as err:
                 self.problem = f"{leaf.text}: {err}; its values are not counted"
                 return
@@ -271,10 +271,10 @@ class _ValueCounter:
                 continue
             try:
                 if leaf.arrays not in elements:
-                    elements[leaf.arrays] = _elements(messages, leaf.arrays)
-                if not beyond_exact(_leaf_values(elements[leaf.arrays], leaf.leaf)).any():
+                    elements[leaf.arrays] = array_elements(messages, leaf.arrays)
+                if not beyond_exact(message_leaf_values(elements[leaf.arrays], leaf.leaf)).any():
                     continue
-                found = _first_unheld(messages, leaf)
+                found = first_unheld(messages, leaf)
             except (PathError, ValueError) as err:
                 self.problem = f"{leaf.text}: {err}; its values are not counted"
                 return

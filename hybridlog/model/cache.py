@@ -45,7 +45,7 @@ import hybridlog
 from hybridlog.errors import ModelError, OptionError, excerpt
 from hybridlog.jit import cache_dir
 from hybridlog.model.builtins import builtin_names, builtin_text
-from hybridlog.model.compiled import _framed, _intact, model_key, store
+from hybridlog.model.compiled import framed_module, intact_module, model_key, store
 from hybridlog.model.hybrid_model import (
     BooleanAffine,
     Deferred,
@@ -172,7 +172,7 @@ def cached_model(
     model = parse_model(text, origin=origin, parameters=overrides)
     body = _encode(model)
     if body is not None:
-        store(path, _framed(KIND, key, body), replace=path.exists())
+        store(path, framed_module(KIND, key, body), replace=path.exists())
     return model
 
 
@@ -353,7 +353,7 @@ def _read(
         framed = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError):
         return None
-    if not _intact(KIND, key, framed):
+    if not intact_module(KIND, key, framed):
         return None
     body = framed.split("\n", 1)[1].rpartition("\n# end ")[0]
     try:

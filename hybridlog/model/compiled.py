@@ -238,17 +238,17 @@ def artefact_key(model: HybridModel, kind: str, modules: Sequence[str] = ()) -> 
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def _framed(kind: str, key: str, body: str) -> str:
+def framed_module(kind: str, key: str, body: str) -> str:
     """The module's text: a header naming the key, the body, a trailer with its checksum."""
     checksum = hashlib.sha256(body.encode()).hexdigest()[:16]
     return f"# hybridlog generated {kind} {key}\n{body}\n# end {checksum}\n"
 
 
-def _intact(kind: str, key: str, text: str) -> bool:
-    """Whether ``text`` is a whole module written by :func:`_framed` for this key."""
+def intact_module(kind: str, key: str, text: str) -> bool:
+    """Whether ``text`` is a whole module written by :func:`framed_module` for this key."""
     header = f"# hybridlog generated {kind} {key}\n"
     body, sep, _ = text.removeprefix(header).rpartition("\n# end ")
-    return text.startswith(header) and bool(sep) and text == _framed(kind, key, body)
+    return text.startswith(header) and bool(sep) and text == framed_module(kind, key, body)
 
 
 def _write_once(path: Path, text: str, replace: bool) -> None:
@@ -304,8 +304,8 @@ def load_generated(
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError):  # missing, unreadable, a folder: written anew
             text = ""
-        if not _intact(kind, key, text):
-            store(path, _framed(kind, key, generate()), replace=path.exists())
+        if not intact_module(kind, key, text):
+            store(path, framed_module(kind, key, generate()), replace=path.exists())
         name = f"hybridlog_generated_{kind}_{key}"
         spec = importlib.util.spec_from_file_location(name, path)
         if spec is None or spec.loader is None:  # pragma: no cover - the file exists

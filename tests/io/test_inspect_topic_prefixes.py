@@ -84,11 +84,11 @@ def test_array_fields_of_a_topic_another_extends_are_listed_plainly(
 
 def test_a_path_two_nested_topics_make_is_still_quoted() -> None:
     # '/a' + '.b[]' and '/a.b' + '[]' spell one path: both keep their topic in quotes
-    shared = message_topics._shared_paths({"/a": [".b[]", ".c"], "/a.b": ["[]"]})
+    shared = message_topics.shared_paths({"/a": [".b[]", ".c"], "/a.b": ["[]"]})
     assert shared == {"/a.b[]"}
-    assert message_topics._spell("/a", ".b[]", shared) == '"/a".b[]'
-    assert message_topics._spell("/a.b", "[]", shared) == '"/a.b"[]'
-    assert message_topics._spell("/a", ".c", shared) == "/a.c"
+    assert message_topics.spelt_path("/a", ".b[]", shared) == '"/a".b[]'
+    assert message_topics.spelt_path("/a.b", "[]", shared) == '"/a.b"[]'
+    assert message_topics.spelt_path("/a", ".c", shared) == "/a.c"
 
 
 def test_which_topic_reads_a_path_is_found_among_the_topics_that_start_it(
@@ -104,7 +104,7 @@ def test_which_topic_reads_a_path_is_found_among_the_topics_that_start_it(
 
     monkeypatch.setattr(message_topics, "split_paths", counting)
     count = 2000
-    shared = message_topics._shared_paths({f"/t{i}": [".v", ".w[]"] for i in range(count)})
+    shared = message_topics.shared_paths({f"/t{i}": [".v", ".w[]"] for i in range(count)})
     assert shared == set()
     # /t1 is extended by /t10 ... /t1999 (1111 topics), /t10 by 111 ...: 6,000 in all,
     # where comparing each path with every topic made 4.4 million

@@ -3,7 +3,7 @@
 ``PointStamped`` topics read 0.66-0.84x as fast as rosbags' own loop: the decoded messages
 were kept 512 at a time, and their objects made Python's cyclic garbage collector run as
 often again, its full collections walking them (``hybridlog/io/topic_reader.py``,
-``_TopicReader._add_numbers_streamed``).  The numbers must be those the careful reading gives.
+``TopicReader._add_numbers_streamed``).  The numbers must be those the careful reading gives.
 """
 
 from __future__ import annotations

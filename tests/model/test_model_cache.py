@@ -175,7 +175,7 @@ def damage_empty(path: Path) -> None:
 def damage_foreign_body(path: Path) -> None:
     # A well-framed file for this key whose body is not a model.
     key = path.stem.removeprefix("model_")
-    path.write_text(cache._framed(cache.KIND, key, '{"modes": 3}'), encoding="utf-8")
+    path.write_text(cache.framed_module(cache.KIND, key, '{"modes": 3}'), encoding="utf-8")
 
 
 def damage_another_model(path: Path) -> None:
@@ -261,7 +261,7 @@ def test_a_warm_model_built_again_must_match_its_file(tmp_path: Path, cache_fold
     key = stored_file.stem.removeprefix("model_")
     body = stored_file.read_text(encoding="utf-8").split("\n", 1)[1].rpartition("\n# end ")[0]
     body = body.replace('"name": "', '"name": "forged ', 1)
-    stored_file.write_text(cache._framed(cache.KIND, key, body), encoding="utf-8")
+    stored_file.write_text(cache.framed_module(cache.KIND, key, body), encoding="utf-8")
     forged = load_model(path)
     assert forged.name.startswith("forged")
     with pytest.raises(ModelError, match="does not match the model file"):
