@@ -701,7 +701,9 @@ class _Converter:
         group = _chain_group(node.op)
         if group is None:
             if isinstance(node.op, ast.Pow):
-                return self.real(node, _power(self.value(node.left), self.value(node.right)))
+                base, exponent = self.value(node.left), self.value(node.right)
+                hint = self._real_root(node, base, exponent)
+                return self.real(node, _power(base, exponent), hint)
             if isinstance(node.op, ast.BitXor):
                 raise ModelError(
                     f"{self.key}: '^' is not a power in a model expression (Python reads it "
@@ -853,7 +855,28 @@ class _Converter:
             )
         return self.real(node, function(*(self.value(arg) for arg in node.args)))
 
-    def real(self, node: ast.expr, value: sympy.Expr) -> sympy.Expr:
+    def _real_root(self, node: ast.BinOp, base: sympy.Expr, exponent: sympy.Expr) -> str:
+        """How to write the real root ``node`` meant, where it is a negative number's odd root.
+
+        sympy's ``(-8)**(1/3)`` is the principal root, ``1 + 1.732i``, as Python's and
+        NumPy's are; a user who meant the real one, -2, is told how to write it:
+        ``sign(b)*abs(b)**(p/q)`` for an odd numerator ``p``, ``abs(b)**(p/q)`` for an even
+        one (an empty text for any other power).
+        """
+        if not (
+            base.is_number
+            and base.is_extended_negative
+            and isinstance(exponent, sympy.Rational)
+            and not exponent.is_Integer
+            and exponent.q % 2 == 1
+        ):
+            return ""
+        written = self.segment(node.left) or ast.unparse(node.left)
+        power = f"abs({written})**({self.segment(node.right) or ast.unparse(node.right)})"
+        real = power if exponent.p % 2 == 0 else f"sign({written})*{power}"
+        return f"; for its real root write {excerpt(real, 80)}"
+
+    def real(self, node: ast.expr, value: sympy.Expr, hint: str = "") -> sympy.Expr:
         """``value``, the power or function ``node``, refused where it is a complex constant.
 
         Only powers and functions leave the reals from real constants (``sqrt(-1)``,
@@ -862,6 +885,8 @@ class _Converter:
         exponent 100 is larger than 64" (the size of ``I`` unknown), ``sqrt(-1)**2*x`` and
         ``log(-1)*0 + x`` were accepted.  An infinity or NaN is left to the checks of
         :func:`parse_expression`, which say so.
+
+        ``hint`` is added to the refusal (:meth:`_real_root`).
 
         Raises
         ------
@@ -878,7 +903,7 @@ class _Converter:
             written = self.segment(node) or ast.unparse(node)
             raise _ComplexValueError(
                 f"{excerpt(written, 40)} is complex-valued ({_unquoted(value, 40)}, not a real "
-                "number); model expressions must be real",
+                f"number); model expressions must be real{hint}",
                 node,
             )
         return value

@@ -301,12 +301,36 @@ def test_a_complex_constant_anywhere_is_refused_as_not_real(
     expression: str, part: str, value: str
 ) -> None:
     """``I``, ``asin`` and ``re`` are not in the grammar (refused as unknown)."""
+    hint = "; for its real root write 'sign(-8)*abs(-8)**(1/3)'" if "(-8)" in part else ""
     with pytest.raises(ModelError) as refused:
         parse_expression(expression, X, key="k")
     assert str(refused.value) == (
         f"k: {part!r} is complex-valued ({value}, not a real number); model expressions must "
-        "be real"
+        f"be real{hint}"
     )
+
+
+@pytest.mark.parametrize(
+    ("expression", "real_root"),
+    [("(-8)**(1/3)", -2), ("c**(1/3)", -2), ("(-2*4)**(2/3)", 4), ("(-32)**(3/5)", -8)],
+)
+def test_a_negative_numbers_odd_root_is_told_how_to_write_its_real_root(
+    expression: str, real_root: int
+) -> None:
+    """sympy's root of a negative number is the principal, complex one (as Python's): the
+    refusal writes the real root, and what it writes parses to that root."""
+    symbols = {**X, "c": sympy.Integer(-8)}
+    with pytest.raises(ModelError) as refused:
+        parse_expression(f"x + {expression}", symbols, key="k")
+    written = str(refused.value).split("for its real root write ")[1].split("'")[1]
+    assert parse_expression(written, symbols, key="k") == real_root
+
+
+def test_no_real_root_is_suggested_for_an_even_root_or_an_inexact_exponent() -> None:
+    for expression in ("(-8)**(1/2)", "(-8)**0.5", "(-8)**(1/4)"):
+        with pytest.raises(ModelError) as refused:
+            parse_expression(expression, X, key="k")
+        assert str(refused.value).endswith("model expressions must be real"), expression
 
 
 def test_a_complex_value_names_the_parameters_of_the_part_that_made_it() -> None:
