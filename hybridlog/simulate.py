@@ -858,10 +858,11 @@ def simulate(
                 {name: states[: stuck + 1, j] for j, name in enumerate(model.states)},
             )
             _check_guard_domain(model, guard, states[stuck], inputs[stuck], time[stuck])
+            from hybridlog.model.escape import point  # the guards read states and inputs
+
             raise ModelError(
                 f"{origin}: no mode's guard (modes.<id>.guard) holds at t = "
-                f"{format_time(time[stuck])} s "
-                f"(x = {states[stuck].tolist()})"
+                f"{format_time(time[stuck])} s ({point(model, states[stuck], inputs[stuck])})"
             )
     else:
         f, h = compile_f_h(model, jit=jit)

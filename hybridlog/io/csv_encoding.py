@@ -107,17 +107,32 @@ def _header_text(path: Path) -> list[str]:
     with path.open("rb") as handle:
         first = handle.readline(_LINE_KEPT)
     text = first.decode("utf-8", errors="replace").lstrip("\ufeff").rstrip("\r\n")
-    return [name.strip(" ") for name in next(csv.reader([text]), [])]
+    return [name.strip(" ") for name in _fields(text) or []]
 
 
 def _column(before: bytes, header: list[str], line: int) -> str:
     """``, column 'u'`` for a bad byte after ``before`` on ``line``; ``""`` if unknown."""
     if len(before) >= _LINE_KEPT:
         return ""
-    fields = next(csv.reader([before.decode("utf-8", errors="replace")]), [""])
+    fields = _fields(before.decode("utf-8", errors="replace"))
+    if fields is None:  # where the csv module cannot split the line, no column is named
+        return ""
     index = max(len(fields), 1) - 1
     if line == 1:
         return f", column {index + 1} of the header"
     if index < len(header):
         return f", column {excerpt(header[index])}"
     return ""
+
+
+def _fields(text: str) -> list[str] | None:
+    """The fields of one line of ``text``; ``None`` where the :mod:`csv` module refuses it.
+
+    A carriage return alone (classic Mac OS line endings, or a stray one) or a NUL byte in an
+    unquoted field is an error to the :mod:`csv` module: naming the bad byte's column is a
+    courtesy, and it raised in place of the refusal it was to make more precise.
+    """
+    try:
+        return next(csv.reader([text]), [])
+    except csv.Error:
+        return None

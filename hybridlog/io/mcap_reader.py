@@ -447,7 +447,9 @@ def open_mcap(path: Path, options: ReadOptions, log_format: LogFormat) -> Messag
         )
     if (
         layout.profile == "ros2"
-        and path.suffix.lower() in log_format.suffixes  # rosbags reads bare files by suffix
+        # rosbags reads bare files by their suffix, in its case: x.MCAP (which simulate
+        # writes, and reading takes as MCAP) it refused as "Unrecognized storage format"
+        and path.suffix in log_format.suffixes
         and rosbags_summary_problem(path) is None
     ):
         from hybridlog.io.rosbag_reader import BagSource  # which imports this module's checks

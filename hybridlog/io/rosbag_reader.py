@@ -173,6 +173,11 @@ class BagSource(MessageSource):
             for file in sorted(self._file.glob("*.db3")):
                 check_sqlite(file)
         elif kind == "ros2-db3":
+            if self._file.suffix not in log_format.suffixes:  # x.DB3: the suffix is read
+                raise LogError(
+                    f"{self.path}: a ROS 2 sqlite3 bag file must end in .db3, in lower case "
+                    "(rosbags, which reads it, takes the format from its name): rename it"
+                )
             check_sqlite(self._file)
         try:
             self._open()

@@ -139,11 +139,21 @@ def model_file(name_or_path: str | Path) -> Path | None:
     Raises
     ------
     ModelError
-        When it names neither a file nor a built-in (a folder, a missing ``.toml`` file).
+        When it names neither a file nor a built-in (a folder, a missing ``.toml`` file),
+        and when an empty file shadows the built-in of its name: ``hybridlog models
+        three_tank_hstf > three_tank_hstf`` has the shell create that file before the
+        command reads it, which was then refused as an empty model file, telling the user
+        to print the built-in they had asked for.
     """
     path = Path(name_or_path)
     name = str(name_or_path)
     if path.is_file():
+        if name in builtin_names() and path.stat().st_size == 0:
+            raise ModelError(
+                f"{name}: an empty file of that name shadows the built-in model {name} (a "
+                "file of the path given wins): remove or rename the file; to save the "
+                f"built-in, write it to another name, e.g. hybridlog models {name} > {name}.toml"
+            )
         return path
     if name in builtin_names():
         return None

@@ -84,3 +84,22 @@ def test_utf16_is_named(tmp_path: Path, encoding: str) -> None:
         assert message.startswith(f"{path}: UTF-16 text") and "\n" not in message
         order = encoding[7:].upper()
         assert f"iconv -f UTF-16{order} -t UTF-8" in message
+
+
+@pytest.mark.parametrize(
+    ("data", "where"),
+    [
+        (b"t,y\r0,1\r1,\xb0\r", "line 1: "),  # classic Mac OS line endings: one line
+        (b"t,y\xb0\rz\n0,1\n", "line 1, column 2 of the header: "),  # a stray one after it
+        (b"t,y\n0,1\n1\r2,\xb0\n", "line 3: "),  # a stray one before it
+    ],
+    ids=["mac-line-endings", "in-the-header-after", "in-a-row-before"],
+)
+def test_a_carriage_return_alone_does_not_stop_the_refusal(
+    tmp_path: Path, data: bytes, where: str
+) -> None:
+    """The csv module refuses a line with a lone CR: it raised in place of naming the byte."""
+    path = tmp_path / "log.csv"
+    path.write_bytes(data)
+    for message in _refusals(path):
+        assert message.startswith(f"{path}, {where}byte 0xb0 is not UTF-8")

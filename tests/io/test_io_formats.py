@@ -128,6 +128,26 @@ def test_each_row_reads_a_file_written_by_another_tool(key: str, tmp_path: Path)
     assert inspect_log(log)["format"] == info.format
 
 
+def test_a_suffix_in_capitals_is_read_or_refused_by_its_case(tmp_path: Path) -> None:
+    """rosbags reads a bare file by its suffix, in its case; hybridlog takes any case.
+
+    ``simulate --out run.MCAP`` wrote a log that reading refused as rosbags' "Unrecognized
+    storage format '.MCAP'"; it is read by the mcap library as an MCAP file of another name.
+    A ``.DB3`` file, which only rosbags reads, is refused saying what to rename.
+    """
+    mcap = shutil.copy(SAMPLE / "three_tank_hstf.mcap", tmp_path / "run.MCAP")
+    lower = shutil.copy(SAMPLE / "three_tank_hstf.mcap", tmp_path / "run.mcap")
+    spec = SignalSpec(inputs=("u",), outputs=("y1",), states=(), mode_ids=("1", "2", "3"), dt=1)
+    read = load_signals(mcap, spec, ReadOptions(maps=("u=/u.data", "y1=/y1.data")))
+    again = load_signals(lower, spec, ReadOptions(maps=("u=/u.data", "y1=/y1.data")))
+    np.testing.assert_array_equal(read.outputs, again.outputs)
+    db3 = shutil.copy(_db3(tmp_path), tmp_path / "run.DB3")
+    with pytest.raises(
+        LogError, match=r"run\.DB3: a ROS 2 sqlite3 bag file must end in \.db3, in "
+    ):
+        open_log(db3)
+
+
 def test_suffix_cross_check(tmp_path: Path) -> None:
     bag = shutil.copy(SAMPLE / "three_tank_hstf.bag", tmp_path / "bag.csv")
     with pytest.raises(LogError) as error:

@@ -197,6 +197,18 @@ def test_a_builtin_name_beside_a_folder_of_that_name_is_the_builtin(tmp_path, mo
     assert model_file("ice_clutch.toml") == Path("ice_clutch.toml")
 
 
+def test_an_empty_file_shadowing_a_builtin_says_so(tmp_path, monkeypatch):
+    # `hybridlog models ice_clutch > ice_clutch`: the shell creates the empty file first,
+    # which was refused as "no keys (an empty model file?); `hybridlog models NAME` prints
+    # a built-in model's file to start from", what the user had just run
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ice_clutch").touch()
+    with pytest.raises(ModelError, match=r"^ice_clutch: an empty file of that name shadows the "):
+        load_model("ice_clutch")
+    (tmp_path / "ice_clutch").write_text(LINEAR_TWO_MODE)  # a file of the name still wins
+    assert model_file("ice_clutch") == Path("ice_clutch")
+
+
 def test_parameter_override_changes_the_equations():
     base = parse_model(PENDULUM_ONE_MODE)
     changed = parse_model(PENDULUM_ONE_MODE, parameters={"l": 2.6})
