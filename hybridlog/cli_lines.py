@@ -15,14 +15,16 @@ from typing import TYPE_CHECKING
 import click
 
 from hybridlog.cli_options import is_quiet
-from hybridlog.errors import as_text, excerpt
+from hybridlog.errors import as_text, excerpt, printable, shortened
 
 if TYPE_CHECKING:
     from hybridlog.report.document import Report
 
 
-MAX_MESSAGE = 400
-"""Longest error or warning line the CLI prints (longer ones are cut in the middle)."""
+MAX_MESSAGE = 1000
+"""Longest error or warning line the CLI prints (longer ones are cut in the middle, between
+words: :func:`~hybridlog.errors.shortened`); a warning of 550 characters (``analyze`` on
+bioplex_pgc) lost its middle at 400."""
 
 
 def say(ctx: click.Context, text: str) -> None:
@@ -55,7 +57,7 @@ def for_terminal(text: str) -> str:
 
 def one_line(text: str) -> str:
     """The final guard on everything printed to stderr: one printable, bounded line."""
-    return excerpt(" ".join(str(text).split()), MAX_MESSAGE)[1:-1]
+    return shortened(printable(" ".join(str(text).split())), MAX_MESSAGE)
 
 
 def summary_line(report: Report) -> str:

@@ -173,13 +173,41 @@ def excerpt(text: object, limit: int = EXCERPT_LIMIT) -> str:
     >>> excerpt("run\udcff.csv")
     "'run\\xff.csv'"
     """
-    shown = "".join(
-        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in as_text(text)
-    )
+    shown = printable(text)
     if len(shown) > limit:
         keep = max(limit - 1, 2)
         shown = shown[: keep - keep // 3] + "…" + shown[len(shown) - keep // 3 :]
     return "'" + shown + "'"
+
+
+def printable(text: object) -> str:
+    r"""``text`` with every character that is not printable escaped (``\x00``, ``\n``)."""
+    return "".join(
+        c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in as_text(text)
+    )
+
+
+def shortened(text: str, limit: int, *, end_share: float = 1 / 3) -> str:
+    """``text`` on one line (its runs of white space one space), at most ``limit`` characters.
+
+    A longer one is cut in the middle, where a message says least (it starts with the file or
+    option and ends with what is wrong), the end keeping ``end_share`` of the room; the cut
+    falls between words where one is near, so that no number is cut in two (``t = 0.0015 s``
+    read ``t = 0.… s``), and within a word only where there is none (a quoted 16 KB line).
+    """
+    line = " ".join(text.split())
+    if len(line) <= limit:
+        return line
+    tail_room = round((limit - 1) * end_share)
+    head_room = limit - 1 - tail_room
+    head, tail = line[:head_room], line[len(line) - tail_room :]
+    space = head.rfind(" ")
+    if space >= head_room - head_room // 4:  # a word boundary within the last quarter
+        head = head[: space + 1]
+    space = tail.find(" ")
+    if 0 <= space <= tail_room // 4:
+        tail = tail[space:]
+    return head + "…" + tail
 
 
 ABSOLUTE_FOLDER = (

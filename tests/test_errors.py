@@ -4,6 +4,8 @@ import pickle
 from pathlib import Path
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from hybridlog.errors import (
     DataShortError,
@@ -16,6 +18,7 @@ from hybridlog.errors import (
     arithmetic_reason,
     independent_of,
     prefixed,
+    shortened,
 )
 from hybridlog.io.mcap_reader import UnfinishedLogError
 
@@ -86,3 +89,32 @@ def test_a_byte_that_is_not_utf8_reads_alike_in_errors_notes_and_summaries() -> 
     assert excerpt(name) == "'runs/r\\xff.csv'" == f"'{as_name(name)}'"
     assert excerpt("a\udcffb\n") == "'a\\xffb\\n'"
     assert excerpt("\ud800") == "'\\ud800'"  # a surrogate that is no escaped byte
+
+
+def test_a_long_line_is_cut_between_words_not_inside_a_number() -> None:
+    """``cli_lines.one_line`` cut ``t = 0.0015 s`` into ``t = 0.… s`` (a 405-character
+    refusal of ``simulate --disturbance 1e300,1e300``)."""
+    text = "a step of the interval from t = 0.0015 s to 0.003 s " + "word " * 80 + "is wrong"
+    line = shortened(text, 120)
+    assert len(line) <= 120
+    assert line.startswith("a step of the interval from t = 0.0015 s to 0.003 s word")
+    assert line.endswith(" word is wrong") and " … " in line
+
+
+@given(
+    words=st.lists(st.text("ab1.", min_size=1, max_size=12), min_size=1, max_size=200),
+    limit=st.integers(8, 300),
+    end_share=st.sampled_from([1 / 3, 1 / 2, 2 / 3]),
+)
+def test_shortened_keeps_the_ends_and_words_whole_where_it_can(
+    words: list[str], limit: int, end_share: float
+) -> None:
+    text = " ".join(words)
+    line = shortened(text, limit, end_share=end_share)
+    assert len(line) <= limit
+    if len(text) <= limit:
+        assert line == text
+        return
+    head, tail = line.split("…")
+    assert text.startswith(head) and text.endswith(tail)
+    assert len(line) >= limit * 3 // 4 - 2  # a word boundary is sought near the cut only

@@ -67,6 +67,7 @@ from hybridlog.errors import (
     excerpt,
     first_few,
     names_apart,
+    shortened,
 )
 from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
@@ -297,15 +298,12 @@ def _one_line(text: str) -> str:
     """A log's error on one line of at most :data:`_ERROR_LIMIT` characters.
 
     A longer one is cut in the middle, not at the end: an error starts with the log's path
-    (or the report folder's, as long) and ends with what is wrong, which must stay.  The end
+    (or the report folder's, as long) and ends with what is wrong, which must stay (between
+    words where one is near, :func:`~hybridlog.errors.shortened`).  The end
     keeps two thirds of the room: the summaries name the log in a column of its own, and a
     reason of 150 characters behind a long path lost its first half when the end kept one.
     """
-    line = " ".join(text.split())
-    if len(line) <= _ERROR_LIMIT:
-        return line
-    head = (_ERROR_LIMIT - 1) // 3
-    return line[:head] + "…" + line[len(line) - (_ERROR_LIMIT - 1 - head) :]
+    return shortened(text, _ERROR_LIMIT, end_share=2 / 3)
 
 
 # --- what is shared by the logs -----------------------------------------------------------------

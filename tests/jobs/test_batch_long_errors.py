@@ -37,5 +37,5 @@ def test_a_long_reason_behind_a_long_path_is_kept_whole() -> None:
 
     reason = "the reason, " + "x" * 170 + " (the end)"
     line = _one_line("/logs/" + "p" * 400 + ".csv: " + reason)
-    assert len(line) == 300 and line.startswith("/logs/ppp") and "…" in line
+    assert len(line) <= 300 and line.startswith("/logs/ppp") and "…" in line
     assert line.endswith(reason)  # the end kept 99 characters: half of this reason
