@@ -5,8 +5,9 @@
 ``report/build.py`` its reading notes to ``reading_notes.py``, ``cli.py`` its parameter
 types, options, lines, progress bars and process handling to ``cli_*.py``, ``io/tables.py``
 its CSV checks and frames, Parquet files, time columns and column helpers, ``io/messages.py``
-its topics, topic reader, header stamps, ``inspect`` counts, message leaves and JSON helpers to
-modules of their own: after the splits,
+its topics, topic reader, header stamps, ``inspect`` counts, message leaves and JSON helpers,
+``io/align.py`` its grid, resampling, output gaps, notes, true modes and ``--split-gaps``
+pieces to modules of their own: after the splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -59,6 +60,17 @@ SPLITS = {
             "message_leaves",
             "json_schemas",
             "json_values",
+        )
+    ),
+    "hybridlog.io.align": tuple(
+        f"hybridlog.io.{name}"
+        for name in (
+            "time_grid",
+            "resampling",
+            "output_gaps",
+            "alignment_notes",
+            "true_modes",
+            "log_pieces",
         )
     ),
 }

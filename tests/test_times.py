@@ -63,7 +63,8 @@ def test_a_duration_is_written_to_the_digits_its_times_hold(
 
 
 # '{hold['seconds']:g}', '{bound["left_out"]}', '{_num(gap['duration'])}': a duration a
-# reading or inspect records (io/align.py, io/summary.py), written by hand
+# reading or inspect records (io/alignment_notes.py, io/log_pieces.py, io/true_modes.py,
+# io/summary.py), written by hand
 _KEYS = r"['\"](?:seconds|left_out|duration|sample_time|min_step|max_step)['\"]\]"
 _DURATION_BY_HAND = re.compile(
     r"\{[^{}()]*\[" + _KEYS + r"(?:![rsa])?(?::[^}]*)?\}"

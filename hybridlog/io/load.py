@@ -20,12 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from hybridlog.errors import LogError
-from hybridlog.io.align import (
-    SignalsApartError,
-    align_signals,
-    check_alignment_options,
-    clock_tolerance_ns,
-)
+from hybridlog.io.align import align_signals, check_alignment_options
 from hybridlog.io.clocks import clocks_disagree
 from hybridlog.io.formats import open_log
 from hybridlog.io.mapping import (
@@ -38,6 +33,7 @@ from hybridlog.io.mapping import (
 )
 from hybridlog.io.options import ReadOptions
 from hybridlog.io.source import NS_PER_S, FieldKey, LabelSeries, Series, format_ns
+from hybridlog.io.time_grid import SignalsApartError, clock_tolerance_ns
 from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals, IntArray
 
 Locate = Callable[[str, int], str]

@@ -34,7 +34,6 @@ from typing import Any, Self
 import numpy as np
 
 from hybridlog.errors import LogError, OptionError, excerpt
-from hybridlog.io.align import clock_tolerance_ns
 from hybridlog.io.column_summary import column_info, describe_column
 from hybridlog.io.column_types import NARROW_INTEGERS, dtype_name, holds_numbers, holds_text
 from hybridlog.io.csv_frames import (
@@ -94,6 +93,7 @@ from hybridlog.io.table_paths import (
 )
 from hybridlog.io.table_paths import resolve as resolve_path
 from hybridlog.io.table_times import TIME_COLUMNS, iso_format, not_a_time
+from hybridlog.io.time_grid import clock_tolerance_ns
 from hybridlog.polars_import import pl, polars_file
 from hybridlog.signals import FloatArray, IntArray
 from hybridlog.times import format_time
@@ -784,7 +784,7 @@ class TableSource:
         there read as repeated times ("time repeats", which said nothing of why), and with
         ``--sort`` its rows were merged into fewer, unevenly spaced samples.  Refused when
         the spacing exceeds the tolerance the alignment allows a sample's time
-        (:func:`~hybridlog.io.align.clock_tolerance_ns` of the mean step, at least the
+        (:func:`~hybridlog.io.time_grid.clock_tolerance_ns` of the mean step, at least the
         nanosecond).
         """
         if seconds.size < 2:

@@ -110,7 +110,7 @@ def _segment_notes(reading: Mapping[str, Any]) -> list[str]:
     segments = reading.get("segments")
     if not segments:
         return []
-    # report.json lists the first pieces and gaps only, each counted (io.align._listed)
+    # report.json lists the first pieces and gaps only, each counted (io.log_pieces._listed)
     analysed = reading["analysed_segment"]
     kept = reading.get("analysed") or segments[analysed]
     others = [p for i, p in enumerate(segments) if i != analysed]
@@ -156,7 +156,7 @@ def bridged_cause(count: Mapping[str, Any]) -> str:
     """Why an output was bridged, in words, from its median sample step.
 
     ``count`` is the output's entry in ``reading.bridged``
-    (:func:`~hybridlog.io.align.sampled_every`).  A topic published at a slower rate than
+    (:func:`~hybridlog.io.alignment_notes.sampled_every`).  A topic published at a slower rate than
     the model's (a ROS topic of its own at a third of it) has no sample at most grid points
     by design; one published at the model's rate lacks samples there.  The warning asked
     of both whether the model's dt is the log's.

@@ -5,7 +5,7 @@ tie goes to the earlier sample).  At Unix-epoch times float seconds carry a few 
 nanoseconds of rounding, and the test ``2 * distance > dt`` put some points just beyond:
 the same log, moved along the epoch, was warned of as "bridged" at 0 to 23 of 29 points,
 and its grid was 29 or 30 points long.  ``dt/2`` now has the clock's tolerance, as
-``max_gap`` has (:func:`~hybridlog.io.align.past_half_step`).
+``max_gap`` has (:func:`~hybridlog.io.time_grid.past_half_step`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
-from hybridlog.io.align import past_half_step
+from hybridlog.io.time_grid import past_half_step
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y", "z"), mode_ids=("1",), dt=0.1)
 

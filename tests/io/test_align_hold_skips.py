@@ -1,7 +1,7 @@
 """Input samples the zero-order hold does not take are counted and said.
 
 An input recorded once per step by a clock that jitters by up to ``dt/2`` (beyond the
-``dt/4`` that :func:`~hybridlog.io.align.jittered_index` takes as jitter) was held as SPEC
+``dt/4`` that :func:`~hybridlog.io.resampling.jittered_index` takes as jitter) was held as SPEC
 §5 says, the last sample at or before each grid point: wherever a late sample followed an
 early one, the early one was never used and the point before took the sample before its
 own, a step late.  Half the samples were a step late at random, and nothing said so: the

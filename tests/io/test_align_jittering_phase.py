@@ -3,7 +3,7 @@
 A log whose topics are each published once per step around ``k*dt``, jittering
 independently by up to 20 % of ``dt``, had its grid started at the latest first message
 (0.106 s after a tick with ``dt = 1 s``).  Input samples then lay up to 0.306 s from their
-grid point, beyond the ``dt/4`` that :func:`~hybridlog.io.align.jittered_index` takes as
+grid point, beyond the ``dt/4`` that :func:`~hybridlog.io.resampling.jittered_index` takes as
 jitter, and the zero-order hold took every one that came after its point a step late:
 57 of 300 input samples were not used, a random one-step delay the estimator cannot tell
 from the plant.  The grid now starts on the held signals' phase, where each point takes its

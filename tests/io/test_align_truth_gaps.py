@@ -17,8 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from hybridlog.io.align import align_signals, records_switches
+from hybridlog.io.align import align_signals
 from hybridlog.io.source import LabelSeries, Series, seconds_to_ns
+from hybridlog.io.true_modes import records_switches
 from hybridlog.report.reading_notes import report_reading_notes
 from hybridlog.signals import NO_TRUE_MODE, first_uncovered
 

@@ -8,8 +8,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from hybridlog.io import ReadOptions, SignalSpec, load_signals
-from hybridlog.io import align as align_module
+from hybridlog.io import ReadOptions, SignalSpec, load_signals, time_grid
 
 
 def _log(folder: Path, rows: int = 50) -> Path:
@@ -28,13 +27,13 @@ def test_a_log_on_its_clock_finds_the_clock_in_one_pass(
     the clock, and each checked the latest first sample against it a second time, though it
     was one of the clock's ticks.  Now once."""
     calls: list[int] = []
-    original = align_module._from_tick
+    original = time_grid._from_tick
 
     def counted(time_ns: Any, tick_ns: int, dt_ns: int) -> Any:
         calls.append(time_ns.size)
         return original(time_ns, tick_ns, dt_ns)
 
-    monkeypatch.setattr(align_module, "_from_tick", counted)
+    monkeypatch.setattr(time_grid, "_from_tick", counted)
     spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
     signals = load_signals(_log(tmp_path), spec, ReadOptions())
     assert signals.n_samples == 50

@@ -365,9 +365,11 @@ def test_on_grid_shortcut_agrees_with_the_search(
     # others the search; both must give what the search alone gives.  (A jittered series,
     # which the hold takes on the grid, is tested on its own below.)
     from hybridlog.io import align as align_module
+    from hybridlog.io import resampling, true_modes
 
     monkeypatch = pytest.MonkeyPatch()
     monkeypatch.setattr(align_module, "jittered_index", lambda *args: None)
+    monkeypatch.setattr(true_modes, "jittered_index", lambda *args: None)
 
     n = len(jitter_ns)
     time_ns = np.arange(n, dtype=np.int64) * 10_000_000 + np.array(jitter_ns, dtype=np.int64)
@@ -386,12 +388,10 @@ def test_on_grid_shortcut_agrees_with_the_search(
         "resample": resample,
     }
     fast = align_signals(source="s", dt=0.01, **common)
-    original = align_module.on_grid
-    try:
-        align_module.on_grid = lambda *args: -1  # type: ignore[assignment]
+    with pytest.MonkeyPatch.context() as patch:  # on_grid's callers: resampling, true_modes
+        patch.setattr(resampling, "on_grid", lambda *args: -1)
+        patch.setattr(true_modes, "on_grid", lambda *args: -1)
         slow = align_signals(source="s", dt=0.01, **common)
-    finally:
-        align_module.on_grid = original
     np.testing.assert_array_equal(fast.time, slow.time)
     np.testing.assert_array_equal(fast.inputs, slow.inputs)
     np.testing.assert_array_equal(fast.outputs, slow.outputs)
@@ -521,11 +521,12 @@ def test_a_log_in_nanoseconds_is_refused_before_its_grid_is_made(monkeypatch) ->
     """Times in ns read as seconds (50 rows from 0) asked numpy for a grid of 365 GiB and
     ended as 'out of memory in align.py'; the gap is now seen before the grid is made."""
     import hybridlog.io.align as align
+    import hybridlog.io.time_grid as time_grid
 
     def no_grid(*args: Any, **kwargs: Any) -> Any:
         raise AssertionError("the grid was made before the gap was seen")
 
-    monkeypatch.setattr(align, "make_grid", no_grid)
+    monkeypatch.setattr(time_grid, "make_grid", no_grid)
     monkeypatch.setattr(align, "grid_between", no_grid)
     stamps = np.arange(50) * 100_000_000.0  # nanoseconds, taken as seconds
     with pytest.raises(
@@ -575,7 +576,7 @@ def test_the_early_gap_check_refuses_only_what_the_grid_check_refuses(
 
     early = run()
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(align, "_gap_on_the_grid", lambda *args: None)
+        patch.setattr(align, "gap_on_the_grid", lambda *args: None)
         late = run()
     if isinstance(early, str) or isinstance(late, str):
         assert early == late
@@ -813,7 +814,7 @@ def test_the_grid_has_one_point_per_sample_of_a_log_sampled_at_dt(
 ) -> None:
     # dt in tenths of a nanosecond, from 1 ns to 1 ms: the log's times are the nearest
     # nanoseconds to k*dt, as a writer at that rate records them.
-    from hybridlog.io.align import make_grid
+    from hybridlog.io.time_grid import make_grid
 
     dt = step_tenths * 1e-10
     time_ns = t0_ns + seconds_to_ns(np.arange(n) * dt)

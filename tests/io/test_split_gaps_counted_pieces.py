@@ -85,9 +85,9 @@ def test_report_json_lists_the_first_pieces_counted_and_flagged(
     """A log cut into 20,000 pieces had every piece and gap listed in report.json (2 MB per
     report); the first MAX_LISTED_GAPS are listed now, each list counted and flagged as cut,
     and the piece analysed is recorded whole even when it lies past the listed ones."""
-    from hybridlog.io import align
+    from hybridlog.io import log_pieces
 
-    monkeypatch.setattr(align, "MAX_LISTED_GAPS", 3)
+    monkeypatch.setattr(log_pieces, "MAX_LISTED_GAPS", 3)
     # 8 gaps of 1 s between pieces of 0.5 s; the last piece, 2 s, is the longest
     times = [1.5 * k + 0.1 * j for k in range(8) for j in range(6)]
     times += [12.0 + 0.1 * j for j in range(21)]
@@ -104,7 +104,7 @@ def test_report_json_lists_the_first_pieces_counted_and_flagged(
     assert notes["analysed_segment"] == 8
     assert notes["analysed"] == {"start": 12.0, "end": 14.0, "duration": 2.0}
     # a list not cut says so too: a reader never guesses
-    monkeypatch.setattr(align, "MAX_LISTED_GAPS", 1000)
+    monkeypatch.setattr(log_pieces, "MAX_LISTED_GAPS", 1000)
     whole: dict[str, Any] = {}
     load_signals(log, SPEC, ReadOptions(split_gaps=True), notes=whole)
     assert [len(whole["segments"]), whole["segment_count"], whole["segments_truncated"]] == [
