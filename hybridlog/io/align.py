@@ -139,7 +139,7 @@ def _output_grid(
     max_gap_ns: int,
     dropped: Mapping[str, IntArray],
 ) -> IntArray:
-    """The grid of the inputs, commands and outputs ``signals`` (:func:`.time_grid.make_grid`).
+    """The grid ``t0 + k*dt`` (ns) of the inputs, commands and outputs ``signals``.
 
     A gap of an output that the grid is sure to refuse is refused before the grid is made
     (:func:`~hybridlog.io.output_gaps.gap_on_the_grid`): times not in seconds would ask for GiBs.
@@ -149,8 +149,8 @@ def _output_grid(
     output_list = list(outputs.values())
     held_signals = [*inputs.values(), *commands.values()]
     starts, ends = [*held_signals, *output_list], output_list or held_signals
-    # make_grid's first and last times, found once (the held signals' clock is a pass over
-    # their samples): the span of grid_span, then the grid
+    # the grid's first and last times, found once (the held signals' clock is a pass over
+    # their samples): the span the output gaps are judged over, then the grid
     t0, t_last = t0_and_last(starts, ends, source, dt_ns, on_whole_ns(held_signals, dt))
     span = t0, span_end(dt_ns, t_last, bool(ends))
     for symbol, series in outputs.items():

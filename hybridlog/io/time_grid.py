@@ -1,6 +1,6 @@
 """The model's grid ``t0 + k*dt`` in nanoseconds, and what counts as on it (SPEC §5).
 
-Where the grid starts and ends (:func:`make_grid`, :func:`grid_span`): at the latest first
+Where the grid starts and ends (:func:`t0_and_last`, :func:`span_end`): at the latest first
 sample, or on the clock the inputs and commands share (:func:`held_clock`, exact or
 jittering); its points counted without rounding ``dt`` once (:func:`grid_between`).  And the
 clock tolerance every reading of the grid shares (:func:`clock_tolerance_ns`): a sample that
@@ -74,27 +74,8 @@ def step_ns(dt: float) -> int:
     return round(dt * NS_PER_S)
 
 
-def grid_span(
-    dt_ns: int,
-    starts: Sequence[Series],
-    ends: Sequence[Series],
-    *,
-    held: Sequence[Series] = (),
-    source: str = "log",
-) -> tuple[int, int]:
-    """First and last time (ns) the grid of :func:`make_grid` may reach: ``t0`` and ``t_end``.
-
-    Raises
-    ------
-    LogError
-        When the series do not overlap or one of them is empty.
-    """
-    t0, t_last = t0_and_last(starts, ends, source, dt_ns, held)
-    return t0, span_end(dt_ns, t_last, bool(ends))
-
-
 def span_end(dt_ns: int, t_last: int, bounded_by_ends: bool) -> int:
-    """The last time (ns) a grid point may reach (:func:`grid_span`).
+    """The last time (ns) a grid point may reach.
 
     ``t_last`` is the earliest last sample of the series bounding the end: half a step past
     it when outputs bound the end, else itself.
@@ -252,43 +233,8 @@ def t0_and_last(
     return (on_clock if on_clock <= t_last else t0), t_last
 
 
-def make_grid(
-    dt: float,
-    starts: Sequence[Series],
-    ends: Sequence[Series],
-    *,
-    held: Sequence[Series] = (),
-    source: str = "log",
-) -> IntArray:
-    """The grid ``t0 + k*dt`` in nanoseconds.
-
-    Parameters
-    ----------
-    dt:
-        Sample time in seconds.
-    starts:
-        Series that must all have begun at ``t0`` (inputs and outputs).
-    ends:
-        Series that bound the end (outputs; the inputs when there are no outputs): the last
-        grid point is at most ``dt/2`` after the earliest last sample among them.
-    held:
-        The series among ``starts`` that are held (inputs, commands): ``t0`` is on their
-        clock, if they have one and ``dt`` is whole nanoseconds (:func:`_grid_start`).
-    source:
-        The log's path, for messages.
-
-    Raises
-    ------
-    LogError
-        When the series do not overlap or one of them is empty.
-    """
-    dt_ns = step_ns(dt)
-    t0, t_last = t0_and_last(starts, ends, source, dt_ns, on_whole_ns(held, dt))
-    return grid_between(dt, t0, t_last, bool(ends))
-
-
 def grid_between(dt: float, t0: int, t_last: int, bounded_by_ends: bool) -> IntArray:
-    """The grid ``t0 + k*dt`` (ns) of :func:`make_grid`, its first and last times known.
+    """The grid ``t0 + k*dt`` (ns), its first and last times known (:func:`t0_and_last`).
 
     ``t_last``: the earliest last sample of the series bounding the end, outputs when
     ``bounded_by_ends`` (:func:`_last_grid_index`).

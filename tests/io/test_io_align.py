@@ -367,36 +367,37 @@ def test_on_grid_shortcut_agrees_with_the_search(
     from hybridlog.io import align as align_module
     from hybridlog.io import resampling, true_modes
 
-    monkeypatch = pytest.MonkeyPatch()
-    monkeypatch.setattr(align_module, "jittered_index", lambda *args: None)
-    monkeypatch.setattr(true_modes, "jittered_index", lambda *args: None)
+    with pytest.MonkeyPatch.context() as monkeypatch:  # undone even where the test fails
+        monkeypatch.setattr(align_module, "jittered_index", lambda *args: None)
+        monkeypatch.setattr(true_modes, "jittered_index", lambda *args: None)
 
-    n = len(jitter_ns)
-    time_ns = np.arange(n, dtype=np.int64) * 10_000_000 + np.array(jitter_ns, dtype=np.int64)
-    time_ns[0] = 0
-    values = np.arange(n, dtype=np.float64) ** 2
-    y = Series(
-        "y", time_ns[skip:] if skip < n - 1 else time_ns, values[skip:] if skip < n - 1 else values
-    )
-    u = Series("u", time_ns, values)
-    x = Series("x", time_ns[: n // 2 + 1], values[: n // 2 + 1])  # truth that stops early
-    common: dict[str, Any] = {
-        "inputs": {"u": u},
-        "outputs": {"y": y},
-        "states": ("x",),
-        "truth_states": {"x": x},
-        "resample": resample,
-    }
-    fast = align_signals(source="s", dt=0.01, **common)
-    with pytest.MonkeyPatch.context() as patch:  # on_grid's callers: resampling, true_modes
-        patch.setattr(resampling, "on_grid", lambda *args: -1)
-        patch.setattr(true_modes, "on_grid", lambda *args: -1)
-        slow = align_signals(source="s", dt=0.01, **common)
-    np.testing.assert_array_equal(fast.time, slow.time)
-    np.testing.assert_array_equal(fast.inputs, slow.inputs)
-    np.testing.assert_array_equal(fast.outputs, slow.outputs)
-    np.testing.assert_array_equal(fast.truth_states, slow.truth_states)  # NaN where it stopped
-    monkeypatch.undo()
+        n = len(jitter_ns)
+        time_ns = np.arange(n, dtype=np.int64) * 10_000_000 + np.array(jitter_ns, dtype=np.int64)
+        time_ns[0] = 0
+        values = np.arange(n, dtype=np.float64) ** 2
+        y = Series(
+            "y",
+            time_ns[skip:] if skip < n - 1 else time_ns,
+            values[skip:] if skip < n - 1 else values,
+        )
+        u = Series("u", time_ns, values)
+        x = Series("x", time_ns[: n // 2 + 1], values[: n // 2 + 1])  # truth that stops early
+        common: dict[str, Any] = {
+            "inputs": {"u": u},
+            "outputs": {"y": y},
+            "states": ("x",),
+            "truth_states": {"x": x},
+            "resample": resample,
+        }
+        fast = align_signals(source="s", dt=0.01, **common)
+        with pytest.MonkeyPatch.context() as patch:  # on_grid's callers: resampling, true_modes
+            patch.setattr(resampling, "on_grid", lambda *args: -1)
+            patch.setattr(true_modes, "on_grid", lambda *args: -1)
+            slow = align_signals(source="s", dt=0.01, **common)
+        np.testing.assert_array_equal(fast.time, slow.time)
+        np.testing.assert_array_equal(fast.inputs, slow.inputs)
+        np.testing.assert_array_equal(fast.outputs, slow.outputs)
+        np.testing.assert_array_equal(fast.truth_states, slow.truth_states)  # NaN where it stopped
 
 
 @pytest.mark.parametrize("late", [True, False])
@@ -521,12 +522,10 @@ def test_a_log_in_nanoseconds_is_refused_before_its_grid_is_made(monkeypatch) ->
     """Times in ns read as seconds (50 rows from 0) asked numpy for a grid of 365 GiB and
     ended as 'out of memory in align.py'; the gap is now seen before the grid is made."""
     import hybridlog.io.align as align
-    import hybridlog.io.time_grid as time_grid
 
     def no_grid(*args: Any, **kwargs: Any) -> Any:
         raise AssertionError("the grid was made before the gap was seen")
 
-    monkeypatch.setattr(time_grid, "make_grid", no_grid)
     monkeypatch.setattr(align, "grid_between", no_grid)
     stamps = np.arange(50) * 100_000_000.0  # nanoseconds, taken as seconds
     with pytest.raises(
@@ -814,12 +813,14 @@ def test_the_grid_has_one_point_per_sample_of_a_log_sampled_at_dt(
 ) -> None:
     # dt in tenths of a nanosecond, from 1 ns to 1 ms: the log's times are the nearest
     # nanoseconds to k*dt, as a writer at that rate records them.
-    from hybridlog.io.time_grid import make_grid
+    from hybridlog.io.time_grid import grid_between, on_whole_ns, step_ns, t0_and_last
 
     dt = step_tenths * 1e-10
     time_ns = t0_ns + seconds_to_ns(np.arange(n) * dt)
     signal = Series("s", time_ns, np.zeros(n))
-    grid = make_grid(dt, [signal], [signal] if outputs else [])
+    ends = [signal] if outputs else []  # the grid as align_signals makes it
+    t0, t_last = t0_and_last([signal], ends, "s", step_ns(dt), on_whole_ns([], dt))
+    grid = grid_between(dt, t0, t_last, bool(ends))
     assert grid.size == n
     assert grid[0] == time_ns[0]
     # Never a point more than half a step (plus the nanosecond rounding) past the last sample.
