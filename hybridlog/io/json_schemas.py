@@ -13,8 +13,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from hybridlog.io.message_paths import PathError, Step, format_steps, spell_field
-from hybridlog.io.source import closest_names
+from hybridlog.io.message_paths import PathError, Step, format_steps, no_field, spell_field
 
 MAX_JSON_DEPTH = 256
 """Nesting of a JSON message or schema (objects and arrays) that ``inspect`` walks; deeper
@@ -77,10 +76,7 @@ def json_type(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
                 return None
             if step not in properties:
                 names = [spell_field(str(k)) for k in properties]
-                raise PathError(
-                    f"{format_steps(done) or 'the message'} has no field {step!r}; "
-                    f"{closest_names([step], names).replace('available', 'fields')}"
-                )
+                raise no_field(format_steps(done) or "the message", step, names)
             node = properties[step]
         done.append(step)
     if not isinstance(node, Mapping):

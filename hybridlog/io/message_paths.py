@@ -100,6 +100,17 @@ class PathError(Exception):
     """A path that does not fit the log or its messages (message without file prefix)."""
 
 
+def no_field(where: str, step: str, names: Sequence[str]) -> PathError:
+    """``<where> has no field 'x'; closest fields: ...``, of a path step no field matches.
+
+    One wording for a path into a ROS definition, a decoded message and a JSON schema.
+    """
+    return PathError(
+        f"{where} has no field {step!r}; "
+        f"{closest_names([step], names).replace('available', 'fields')}"
+    )
+
+
 class UndecodableError(Exception):
     """A serialised message does not match its definition.
 
@@ -286,11 +297,7 @@ def check_path(typedefs: Typedefs, msgtype: str, steps: Sequence[Step]) -> Targe
                 )
             fields = dict(typedefs[desc[1]][1])
             if step not in fields:
-                names = _field_names(typedefs, desc[1])
-                raise PathError(
-                    f"{desc[1]} has no field {step!r}; "
-                    f"{closest_names([step], names).replace('available', 'fields')}"
-                )
+                raise no_field(desc[1], step, _field_names(typedefs, desc[1]))
             desc = fields[step]
             where = f"{where}.{step}" if where != msgtype else f".{step}"
         elif node in (ARRAY, SEQUENCE):
@@ -442,19 +449,12 @@ def evaluate(message: object, steps: Sequence[Step]) -> object:
         elif isinstance(value, Mapping):
             if step not in value:
                 keys = [spell_field(str(k)) for k in value]
-                raise PathError(
-                    f"{format_steps(done) or 'the message'} has no field {step!r}; "
-                    f"{closest_names([step], keys).replace('available', 'fields')}"
-                )
+                raise no_field(format_steps(done) or "the message", step, keys)
             value = value[step]
         else:
             found = _attribute(value, step)
             if found is _MISSING:
-                names = _public_names(value)
-                raise PathError(
-                    f"{format_steps(done) or 'the message'} has no field {step!r}; "
-                    f"{closest_names([step], names).replace('available', 'fields')}"
-                )
+                raise no_field(format_steps(done) or "the message", step, _public_names(value))
             value = found
         done.append(step)
     return value
