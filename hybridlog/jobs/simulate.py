@@ -120,10 +120,6 @@ def simulate_log(
     inputs: list[tuple[str, PathLike]] = (
         [("model file", model_ref)] if Path(model_ref).is_file() else []
     )
-    # Every check of the output runs before the simulation.
-    chosen = check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
-    if chosen not in ("csv", "parquet"):  # every name a ROS name, no two one topic
-        check_topic_names(out, *log_columns(model))
     texts = _setting_texts(settings)
     moved = {name: text for name, text in texts.items() if name in model.parameters}
     if moved:  # the plant simulated with other [parameters] values
@@ -135,18 +131,13 @@ def simulate_log(
     given = {name: set_text(name, text) for name, text in texts.items()}
     if disturbance is not None:
         given[_DISTURBANCE] = f"--disturbance {excerpt(disturbance.strip())[1:-1]}"
+    _refuse_options_unread(model, schedule, parsed is not None, noise, values)
+    # Every check of the output runs before the simulation, after those of what it reads:
+    # a bad --set was told only once the output, refused first, was out of the way
+    chosen = check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
+    if chosen not in ("csv", "parquet"):  # every name a ROS name, no two one topic
+        check_topic_names(out, *log_columns(model))
     if model.has_components:
-        if schedule is not None:
-            raise OptionError(
-                f"--schedule: {model.origin or model.name} is a components model; its "
-                "components' modes are scheduled in simulation.modes"
-            )
-        if parsed is not None or not noise:
-            flag = "--disturbance" if parsed is not None else "--no-noise"
-            raise OptionError(
-                f"{flag}: {model.origin or model.name} is a components model; its noise "
-                "and unmodelled behaviours are set in its [simulation] table"
-            )
         from hybridlog.simulate_components import simulate_components
 
         with given_in_errors(given, (ModelError,)):  # its OptionErrors: --steps, --seed, --set
@@ -164,15 +155,6 @@ def simulate_log(
         samples = int(played.time.shape[0])
         notes: tuple[str, ...] = played.notes
     else:
-        if values:
-            name = next(iter(values))
-            known = ", ".join(model.parameters) or "none"
-            raise OptionError(
-                f"--set {excerpt(name)[1:-1]}: neither a parameter of model "
-                f"{model.origin or model.name} (parameters: {known}) nor a scenario parameter "
-                f"(only a components model has them, in [simulation.parameters])"
-                f"{closest(name, model.parameters)}"
-            )
         with given_in_errors(given, (ModelError,)):
             log = simulate_model(
                 model,
@@ -233,6 +215,42 @@ def simulate_log(
 
 _DISTURBANCE = "--disturbance"
 """The disturbance's entry among the values a simulation's errors name (no parameter's name)."""
+
+
+def _refuse_options_unread(
+    model: HybridModel,
+    schedule: str | None,
+    disturbance: bool,
+    noise: bool,
+    values: Mapping[str, object],
+) -> None:
+    """Refuse the options ``model``'s simulation would not read, before any output is checked.
+
+    A components model schedules its components' modes and sets its noise and unmodelled
+    behaviours in its ``[simulation]`` table (no ``--schedule``, ``--disturbance`` or
+    ``--no-noise``); only it has scenario parameters (``values``, the ``--set`` names that
+    are not the model's parameters).
+    """
+    name = model.origin or model.name
+    if model.has_components:
+        if schedule is not None:
+            raise OptionError(
+                f"--schedule: {name} is a components model; its components' modes are "
+                "scheduled in simulation.modes"
+            )
+        if disturbance or not noise:
+            raise OptionError(
+                f"{'--disturbance' if disturbance else '--no-noise'}: {name} is a components "
+                "model; its noise and unmodelled behaviours are set in its [simulation] table"
+            )
+    elif values:
+        given = next(iter(values))
+        known = ", ".join(model.parameters) or "none"
+        raise OptionError(
+            f"--set {excerpt(given)[1:-1]}: neither a parameter of model {name} (parameters: "
+            f"{known}) nor a scenario parameter (only a components model has them, in "
+            f"[simulation.parameters]){closest(given, model.parameters)}"
+        )
 
 
 def log_columns(model: HybridModel) -> tuple[tuple[str, ...], tuple[str, ...]]:

@@ -9,6 +9,7 @@ Parquet keep the float seconds).
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -208,3 +209,52 @@ def test_a_controller_overflow_is_said_in_words_not_as_an_errno_tuple() -> None:
     )
     assert message.startswith("m.toml: simulation.controller: Numerical result out of range at t")
     assert "(34" not in message and "(with --set ki=1e+300)" in message
+
+
+@pytest.mark.parametrize(
+    ("settings", "said"),
+    [
+        (["A=inf"], "--set A: expected a finite number"),
+        (["nosuch=1"], "--set nosuch: neither a parameter of model"),
+        (["A=150"], None),  # all else sound: the output's refusal
+    ],
+)
+def test_what_the_simulation_reads_is_checked_before_its_output(
+    settings: list[str], said: str | None, tmp_path: Path
+) -> None:
+    """``simulate --out existing.csv --set A=inf`` said "already exists (use --force ...)",
+    and the bad ``--set`` only once ``--force`` was given: as ``analyze``, ``compare`` and
+    ``batch`` do, what is read is checked first, the output last (the file is kept)."""
+    from hybridlog.errors import HybridlogError, OptionError, OutputError
+    from hybridlog.jobs.simulate import simulate_log
+
+    out = tmp_path / "existing.csv"
+    out.write_text("the user's\n", encoding="utf-8")
+    with pytest.raises(HybridlogError) as refused:
+        simulate_log("three_tank_hstf", out, settings=settings, steps=10)
+    if said is None:
+        assert isinstance(refused.value, OutputError), refused.value
+    else:
+        assert isinstance(refused.value, OptionError) and str(refused.value).startswith(said)
+    assert out.read_text(encoding="utf-8") == "the user's\n"
+
+
+@pytest.mark.parametrize(
+    ("options", "said"),
+    [
+        ({"schedule": "1:10"}, "--schedule: bioplex_pgc is a components model; its components'"),
+        ({"disturbance": "1,2"}, "--disturbance: bioplex_pgc is a components model; its noise"),
+        ({"noise": False}, "--no-noise: bioplex_pgc is a components model; its noise"),
+    ],
+)
+def test_options_a_components_model_does_not_read_are_refused_before_its_output(
+    options: dict[str, object], said: str, tmp_path: Path
+) -> None:
+    from hybridlog.errors import OptionError
+    from hybridlog.jobs.simulate import simulate_log
+
+    out = tmp_path / "existing.csv"
+    out.write_text("the user's\n", encoding="utf-8")
+    with pytest.raises(OptionError, match="^" + re.escape(said)):
+        simulate_log("bioplex_pgc", out, steps=10, **options)
+    assert out.read_text(encoding="utf-8") == "the user's\n"
