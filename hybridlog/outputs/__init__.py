@@ -1,6 +1,6 @@
 """Output paths that never cost the user a byte (SPEC §9).
 
-Every command that writes goes through this module, in two steps:
+Every command that writes goes through this package, in two steps:
 
 1. **Check everything first.**  :func:`check_apart` refuses an output path that is, contains or
    sits inside any input (log, model file, centres file, ``--msg-dir``), with or without
