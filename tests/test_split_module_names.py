@@ -7,7 +7,9 @@ types, options, lines, progress bars and process handling to ``cli_*.py``, ``io/
 its CSV checks and frames, Parquet files, time columns and column helpers, ``io/messages.py``
 its topics, topic reader, header stamps, ``inspect`` counts, message leaves and JSON helpers,
 ``io/align.py`` its grid, resampling, output gaps, notes, true modes and ``--split-gaps``
-pieces to modules of their own: after the splits,
+pieces, ``outputs.py`` (now a package re-exporting its public names) its paths, overlaps,
+temporaries, records, target checks, staging and publishing to modules of their own: after
+the splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -71,6 +73,19 @@ SPLITS = {
             "alignment_notes",
             "true_modes",
             "log_pieces",
+        )
+    ),
+    "hybridlog.outputs": tuple(
+        f"hybridlog.outputs.{name}"
+        for name in (
+            "paths",
+            "overlaps",
+            "temporaries",
+            "records",
+            "file_targets",
+            "folder_targets",
+            "staging",
+            "publishing",
         )
     ),
 }

@@ -59,8 +59,8 @@ from hybridlog.outputs import (
     atomic_output_dir,
     check_apart,
     check_dir_target,
-    check_outside_batch,
 )
+from hybridlog.outputs.folder_targets import check_outside_batch
 from hybridlog.report import (
     Report,
     parse_gates,

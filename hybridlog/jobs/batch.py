@@ -123,7 +123,6 @@ from hybridlog.outputs import (
     check_distinct,
     check_file_name,
     check_file_target,
-    check_followable,
     edited_files,
     is_ours,
     output_path,
@@ -134,6 +133,7 @@ from hybridlog.outputs import (
     write_marker,
     wrote_file,
 )
+from hybridlog.outputs.file_targets import check_followable
 from hybridlog.report import Report, evaluate_gates, parse_gates, read_report
 from hybridlog.report.gates import Gate
 from hybridlog.report.junit import check_junit_target, is_junit_of_ours, write_junit
@@ -1284,10 +1284,11 @@ def _check_same_run_kind(root: Path, folders: Sequence[Path], job: BatchJob) -> 
     beside that batch's reports.  Reports of the same estimator and model made with other
     options are redone as usual (:func:`_reusable`).  Among the others only this batch
     folder's reports count: ``analyze``, ``compare`` and another batch may write a new
-    folder inside a batch folder (:func:`~hybridlog.outputs.check_outside_batch`), and such
-    a report (a comparison's, of other estimators by nature; another batch's, of another
-    estimator) made every later run of the batch fail, exit 2, while it replaced nothing
-    of it; it is named among the other report folders instead (a batch folder inside this
+    folder inside a batch folder
+    (:func:`~hybridlog.outputs.folder_targets.check_outside_batch`), and such a report (a
+    comparison's, of other estimators by nature; another batch's, of another estimator)
+    made every later run of the batch fail, exit 2, while it replaced nothing of it; it
+    is named among the other report folders instead (a batch folder inside this
     one is not searched).
     """
     own = [folder for folder in folders if not folder.is_symlink()]

@@ -28,11 +28,11 @@ from hybridlog.errors import OutputError, excerpt
 from hybridlog.outputs import (
     MARKER,
     PathLike,
-    kept_time,
     output_path,
     record_path,
     temporary_name,
 )
+from hybridlog.outputs.records import kept_time
 from hybridlog.report.junit import is_junit_of_ours
 
 WHOLE_PATH = 4096

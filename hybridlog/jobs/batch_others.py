@@ -8,7 +8,8 @@ only the first:
 
 - ``log``: a batch's report (report.json's ``batch`` key) of a log not in this run;
 - ``analyze``: a report ``hybridlog analyze`` wrote into a folder of the batch folder
-  (:func:`~hybridlog.outputs.check_outside_batch` allows a new one), no ``batch`` key;
+  (:func:`~hybridlog.outputs.folder_targets.check_outside_batch` allows a new one), no
+  ``batch`` key;
 - ``compare``: a comparison ``hybridlog compare`` wrote there, named once (its folder with
   comparison.md/.csv), not as one report per estimator;
 - ``batch``: another batch's folder (a marker listing no files) inside this one, named

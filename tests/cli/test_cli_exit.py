@@ -172,6 +172,7 @@ def test_a_second_signal_does_not_cut_the_removal_of_the_temporary_folder_short(
     dropped: the folder is removed all the same and the command ends on the first (it was
     raised inside the removal, and left the folder)."""
     from hybridlog import cli_process, outputs
+    from hybridlog.outputs import staging
 
     real_rmtree = shutil.rmtree
 
@@ -179,7 +180,7 @@ def test_a_second_signal_does_not_cut_the_removal_of_the_temporary_folder_short(
         signal.raise_signal(signum)  # the second signal, in the clean-up
         real_rmtree(path, *args, **kwargs)
 
-    monkeypatch.setattr(outputs.shutil, "rmtree", rmtree_interrupted)
+    monkeypatch.setattr(staging.shutil, "rmtree", rmtree_interrupted)
     expected = KeyboardInterrupt if signum == signal.SIGINT else cli_process._Terminated
     with pytest.raises(expected), outputs.atomic_output_dir(tmp_path / "out") as folder:
         (folder / "report.json").write_text("{}")

@@ -26,7 +26,7 @@ from hybridlog.io.writers import write_table
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.provenance import library_versions
 from hybridlog.model.builtins import builtin_text
-from hybridlog.outputs import _record_files
+from hybridlog.outputs.records import record_folder_files
 from tests.support.logfiles import tank_run
 
 TANK = "three_tank_hstf"
@@ -201,7 +201,7 @@ def test_resume_redoes_exactly_what_changed(
     # a report that records no provenance (written by analyze, or an old batch) is redone
     report = out / "s1.csv" / "report.json"
     report.write_text(report.read_text().replace('"batch"', '"other"'))
-    _record_files(report.parent)  # as hybridlog wrote it (an edit would be the user's)
+    record_folder_files(report.parent)  # as hybridlog wrote it (an edit would be the user's)
     assert again()["s1.csv"] == "done"
     # --force redoes everything
     assert set(again(force=True).values()) == {"done"}

@@ -21,11 +21,10 @@ from pathlib import Path
 
 import pytest
 
-from hybridlog import outputs
 from hybridlog.errors import OutputError
 from hybridlog.io.writers import write_table
 from hybridlog.jobs.batch import run_batch
-from hybridlog.outputs import MARKER, atomic_output_dir, edited_files, wrote_file
+from hybridlog.outputs import MARKER, atomic_output_dir, edited_files, records, wrote_file
 from tests.support.logfiles import tank_run
 
 TANK = "three_tank_hstf"
@@ -139,7 +138,7 @@ def test_large_tables_are_recognised_by_size_and_time_without_a_digest(
 ) -> None:
     """A table over the digest limit is not hashed when written (its cost), yet a copy of it
     is still recognised, and an edit that changes its time or size still is not."""
-    monkeypatch.setattr(outputs, "_DIGESTED_LIMIT", 64)
+    monkeypatch.setattr(records, "_DIGESTED_LIMIT", 64)
     with atomic_output_dir(tmp_path / "report") as folder:
         (folder / "table.csv").write_text("t,y\n" + "0.5,1.25\n" * 40)
         (folder / "report.md").write_text("# A report\n" + "text\n" * 40)

@@ -13,9 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from hybridlog import outputs
 from hybridlog.io.writers import write_table
-from hybridlog.outputs import check_file_target, record_path, wrote_file
+from hybridlog.outputs import check_file_target, publishing, record_path, wrote_file
 
 COLUMNS = {"t": [0.0, 1.0, 2.0], "y": [1.0, 2.0, 3.0]}
 
@@ -70,7 +69,7 @@ def test_a_file_put_in_place_between_the_move_and_the_record_is_not_recorded(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     log = tmp_path / "run.csv"
-    move = outputs._move_file
+    move = publishing._move_file
 
     def move_then_overtaken(staged: Path, target: Path, *, force: bool) -> None:
         move(staged, target, force=force)
@@ -78,7 +77,7 @@ def test_a_file_put_in_place_between_the_move_and_the_record_is_not_recorded(
         mine.write_text("the user's own file, written at this very moment\n")
         os.replace(mine, target)
 
-    monkeypatch.setattr(outputs, "_move_file", move_then_overtaken)
+    monkeypatch.setattr(publishing, "_move_file", move_then_overtaken)
     write_table(log, COLUMNS)
     monkeypatch.undo()
     assert not wrote_file(log)  # so --force will not replace the user's file

@@ -17,7 +17,7 @@ from hybridlog.errors import OutputError
 from hybridlog.io.writers import write_table
 from hybridlog.jobs.analysis import analyze, compare
 from hybridlog.jobs.batch import run_batch
-from hybridlog.outputs import check_outside_batch
+from hybridlog.outputs.folder_targets import check_outside_batch
 from tests.support.logfiles import tank_run
 
 

@@ -15,7 +15,8 @@ import pytest
 
 from hybridlog.errors import OutputError
 from hybridlog.jobs.batch import run_batch
-from hybridlog.outputs import check_dir_target, check_file_target, check_followable
+from hybridlog.outputs import check_dir_target, check_file_target
+from hybridlog.outputs.file_targets import check_followable
 
 
 @pytest.fixture

@@ -442,7 +442,7 @@ def test_batch_reads_earlier_reports_through_the_typed_report(tmp_path: Path) ->
     # a malformed one is redone (it used to be "skipped" and then crash the summary).
     from hybridlog.io.writers import write_table
     from hybridlog.jobs.batch import run_batch
-    from hybridlog.outputs import _record_files
+    from hybridlog.outputs.records import record_folder_files
     from tests.support.logfiles import tank_run
 
     log = write_table(tmp_path / "run.csv", tank_run(steps=60).columns)
@@ -459,7 +459,7 @@ def test_batch_reads_earlier_reports_through_the_typed_report(tmp_path: Path) ->
     stored.write_text(
         '{"hybridlog_version": "0.1.0", "model": "three_tank_hstf", "estimator": "imm"}'
     )
-    _record_files(stored.parent)  # as hybridlog wrote it (an edit would be the user's)
+    record_folder_files(stored.parent)  # as hybridlog wrote it (an edit would be the user's)
     status, again = batch()
     assert status == "done" and again is not None and again.vaf == done.vaf
     assert read_report(stored) == again

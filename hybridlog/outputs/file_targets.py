@@ -1,0 +1,172 @@
+"""Checks of a target path before anything is written, and of an output file's target.
+
+:func:`check_followable` and :func:`check_creatable` hold for files and folders alike;
+:func:`check_file_name` and :func:`check_file_target` are a file's: replaced only with
+``--force`` and only when hybridlog wrote it (:func:`~hybridlog.outputs.records.wrote_file`).
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from collections.abc import Callable
+from pathlib import Path
+
+from hybridlog.errors import OutputError, excerpt
+from hybridlog.outputs.paths import PathLike, output_path, path_present, shown_path
+from hybridlog.outputs.records import wrote_file
+from hybridlog.outputs.temporaries import temporary_name
+
+_TEMPORARY_OVERHEAD = len(".x.hybridlog-tmp-0000-4194304-00000000") - 1
+"""How much longer than its target's name a temporary name can be (:func:`temporary_name`)."""
+
+
+def check_followable(target: PathLike) -> None:
+    """Refuse an output path, as given, that runs through a file: ``run.csv/../out``.
+
+    :func:`~hybridlog.outputs.paths.output_path` resolves the folder part as
+    :func:`os.path.realpath` does, which takes ``run.csv/..`` for ``run.csv``'s folder; the system
+    refuses such a path (a file is no folder to go up from), so the outputs went to ``./out`` while
+    the command printed ``run.csv/../out/report.md``, a path nobody could open; so through a missing
+    folder (``missing/../out``).  A missing folder is no error otherwise (:func:`check_creatable`
+    tells what can be made).
+
+    Raises
+    ------
+    OutputError
+        Naming the path and the part of it that is not a folder.
+    """
+    text = os.fspath(target)
+    folder = text
+    steps: list[str] = []
+    while (parent := os.path.dirname(folder.rstrip(os.sep)) or "") not in ("", folder):
+        steps.append(parent)
+        folder = parent
+    for step in reversed(steps):  # outermost first, as the system follows the path
+        try:
+            status = os.stat(step)
+        except FileNotFoundError:
+            # made later, unless the path goes up out of it: 'missing/../out' was written
+            # to ./out, reported as missing/../out/report.md, which no one can open
+            if os.pardir in text[len(step) :].split(os.sep):
+                raise OutputError(
+                    f"{shown_path(target)}: cannot be created: {shown_path(step)} does not exist, "
+                    f"so '{os.pardir}' after it leads nowhere"
+                ) from None
+            return
+        except (OSError, ValueError):  # unusable: told later
+            return
+        if not stat.S_ISDIR(status.st_mode):
+            raise OutputError(
+                f"{shown_path(target)}: cannot be created: {shown_path(step)} is not a folder"
+            )
+
+
+def check_creatable(target: Path) -> None:
+    """Refuse an output path that cannot be created or replaced, before any work is done.
+
+    The nearest existing folder above ``target`` must be a folder this process can create a
+    file in (tried with a temporary name, removed at once), and every missing part of the
+    path, and the temporary name written next to ``target``, must fit the file system's
+    limit on a name.
+
+    Raises
+    ------
+    OutputError
+        Naming the path and what is wrong with it.
+    """
+    ancestor = target.parent
+    missing = [target.name]
+    while ancestor.parent != ancestor and not path_present(ancestor):
+        missing.append(ancestor.name)
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise OutputError(
+            f"{shown_path(target)}: cannot be created: {shown_path(ancestor)} is not a folder"
+        )
+    try:
+        limit = os.pathconf(ancestor, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    for name in missing:
+        allowed = limit - _TEMPORARY_OVERHEAD if name == target.name else limit
+        if len(os.fsencode(name)) > allowed:
+            raise OutputError(
+                f"{shown_path(target)}: the name {excerpt(name, 40)} is too long "
+                f"(at most {allowed} bytes here)"
+            )
+    probe = temporary_name(ancestor / "probe")
+    try:
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+        os.unlink(probe)
+    except OSError as err:
+        raise OutputError(
+            f"{shown_path(target)}: cannot be created: no file can be made in "
+            f"{shown_path(ancestor)} ({err.strerror})"
+        ) from None
+
+
+def check_file_name(target: PathLike, option: str = "") -> None:
+    """Refuse a file to write whose name, as given, ends as a folder's: ``x.json/``, ``x/.``.
+
+    ``open`` refuses such a name, but :class:`~pathlib.Path` drops the ``/`` (and a last
+    ``.``), so ``cluster --out dir.json/``, where the user meant a folder, wrote a file
+    ``dir.json``.  Called on the text given (a ``Path`` no longer has the ending), first by
+    :func:`check_file_target`; ``option`` (``--out``) starts the message.
+
+    Raises
+    ------
+    OutputError
+        Naming the option and the path, and that a file is written there.
+    """
+    text = os.fspath(target)
+    separators = os.sep + (os.altsep or "")
+    last = os.path.basename(text)
+    if text.endswith(tuple(separators)):
+        ending = text[len(text.rstrip(separators)) - len(text) :]
+    elif last in (os.curdir, os.pardir):
+        ending = text[-len(last) - 1 :] if len(text) > len(last) else last
+    else:
+        return
+    prefix = f"{option} " if option else ""
+    raise OutputError(
+        f"{prefix}{shown_path(target)}: ends with {excerpt(ending, 20)}, which names a folder; "
+        "name a file to write"
+    )
+
+
+def check_file_target(
+    target: PathLike, *, force: bool, ours: Callable[[Path], bool] = wrote_file
+) -> Path:
+    """Check that an output file may be created, or replaced with ``force``.
+
+    ``force`` replaces only a file hybridlog wrote (SPEC §9): by default one with a record beside it
+    (:func:`~hybridlog.outputs.records.wrote_file`); ``ours`` recognises the files of a command that
+    knows its own otherwise (a batch's summaries inside its folder, a JUnit file by its content).
+
+    Raises
+    ------
+    OutputError
+        When the target is a folder or another file that is not a regular one (a device, a
+        pipe), is named as a folder (:func:`check_file_name`), exists and ``force`` is false
+        or it is not ``ours``, or cannot be created (:func:`check_creatable`).
+    """
+    check_file_name(target)
+    check_followable(target)
+    path = output_path(target)
+    check_creatable(path)
+    if path.is_dir():
+        raise OutputError(f"{shown_path(target)}: is a directory; name a file to write")
+    if path.exists() and not path.is_file():
+        raise OutputError(
+            f"{shown_path(target)}: exists and is not a regular file (a device, pipe or socket); "
+            "hybridlog never replaces one"
+        )
+    if path_present(path) and not force:
+        raise OutputError(f"{shown_path(target)}: already exists (use --force to replace it)")
+    if path_present(path) and not ours(path):
+        raise OutputError(
+            f"{shown_path(target)}: exists and hybridlog did not write it (or it changed since), "
+            "so --force does not replace it; move it away or name another file"
+        )
+    return path
