@@ -69,17 +69,17 @@ def check_dir_target(
         raise OutputError(f"output path {shown_path(path)} exists and is not a directory")
     remove_stale_temporaries(path)  # of a run killed while it filled the folder (_fill_dir)
     try:
-        nonempty = bool(folder_entries(path))  # this run's staging inside it is not content
+        entries = folder_entries(path)  # this run's staging inside it is not content
     except OSError as err:
         raise OutputError(f"output directory {shown_path(path)}: {err.strerror}") from err
-    if not nonempty:
+    if not entries:
         return path
     # Checked with or without ``force``: "use --force" is advised only where it would work.
     if not (is_ours(path) or (ours is not None and ours(path))):
         raise OutputError(
             f"output directory {shown_path(path)} is not empty: it holds files hybridlog did not "
-            f"write (no {MARKER} file), so --force will not delete it; choose another output "
-            "directory or remove this one yourself"
+            f"write ({_some(entries)}; no {MARKER} file), so --force will not delete it; choose "
+            "another output directory or remove this one yourself"
         )
     if replacing:
         _check_only_ours(path, written(path))
