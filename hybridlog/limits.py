@@ -47,8 +47,16 @@ def limit_reached(err: OSError) -> Limit | None:
     ``EAGAIN`` raised where a process or thread is started (``fork`` in :mod:`multiprocessing`
     or :mod:`subprocess`): the user's processes (``ulimit -u``).  Python raises every
     ``EAGAIN`` as a :class:`BlockingIOError`, a non-blocking read's too: only the place tells
-    them apart.
+    them apart.  ``EFBIG`` under a file size limit (``ulimit -f``; without one it is the file
+    system's own largest file): a write past it.
     """
+    if err.errno == errno.EFBIG and (size := _soft(resource.RLIMIT_FSIZE)) != "unlimited":
+        return Limit(
+            "a file reached the size limit",
+            f"this process may write files of {int(size):,} bytes at most: "
+            f"ulimit -f {int(size) // 1024}",
+            "raise the limit (ulimit -f unlimited)",
+        )
     if err.errno == errno.EMFILE:
         files = _soft(resource.RLIMIT_NOFILE)
         return Limit(

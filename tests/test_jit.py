@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 from hybridlog import jit
@@ -211,4 +212,33 @@ def test_a_full_cache_folder_is_one_line_naming_it(
     assert str(raised.value) == (
         f"cache folder {numba.config.CACHE_DIR}: cannot write machine code (No space left on "
         "device); set HYBRIDLOG_CACHE_DIR to a writable folder"
+    )
+
+
+def test_a_file_size_limit_met_by_the_cache_is_named_not_the_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``ulimit -f 64`` and a cold cache: "cannot write machine code (File too large); set
+    HYBRIDLOG_CACHE_DIR to a writable folder", which no folder mends; the limit is named."""
+    import resource
+
+    import numba
+
+    (tmp_path / "limited_cache_kernel.py").write_text(
+        "import numpy as np\n\ndef total(a):\n    return np.sum(np.cumsum(np.sort(a)) ** 2)\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    module = importlib.import_module("limited_cache_kernel")
+    jit.set_up()
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (1024, hard))  # a real EFBIG, as ulimit -f 1
+    try:
+        with pytest.raises(OutputError) as raised:
+            jit.compile_for(module.total, (np.zeros(3),))
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+    assert str(raised.value) == (
+        f"cache folder {numba.config.CACHE_DIR}: cannot write machine code (File too large); "
+        "this process may write files of 1,024 bytes at most: ulimit -f 1; raise the limit "
+        "(ulimit -f unlimited)"
     )

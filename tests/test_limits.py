@@ -132,3 +132,22 @@ def test_a_parallel_batch_under_a_masking_umask_starts_no_forkserver(tmp_path: P
         "folder written (they could not be read back); set a umask such as 022 or 077\n"
     )
     assert not out.exists()
+
+
+def test_a_file_past_the_size_limit_names_ulimit_f(tmp_path: Path) -> None:
+    """A real ``EFBIG`` under ``ulimit -f``: the limit and its value, in ``ulimit``'s blocks;
+    without a limit (the file system's own largest file) none is named."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (4096, hard))
+    try:
+        with pytest.raises(OSError) as raised, (tmp_path / "big").open("wb") as handle:
+            handle.write(b"x" * 10_000)
+            handle.flush()
+        limit = limit_reached(raised.value)
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+    assert raised.value.errno == errno.EFBIG
+    assert limit is not None
+    assert limit.detail == "this process may write files of 4,096 bytes at most: ulimit -f 4"
+    if soft == resource.RLIM_INFINITY:
+        assert limit_reached(OSError(errno.EFBIG, os.strerror(errno.EFBIG))) is None

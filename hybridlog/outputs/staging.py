@@ -17,6 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from hybridlog.errors import OutputError
+from hybridlog.limits import limit_reached
 from hybridlog.outputs.paths import PathLike, output_path, shown_path
 from hybridlog.outputs.records import write_marker
 from hybridlog.outputs.temporaries import remove_stale_temporaries, shown_output, temporary_name
@@ -63,9 +64,13 @@ def storage_error(target: PathLike, err: BaseException) -> OutputError | None:
         number = int(found[1]) if found else None
     if number not in _STORAGE_ERRORS:
         return None
+    limit = limit_reached(OSError(number, os.strerror(number)))
     # an output written inside another's temporary folder (compare's per estimator) is
     # named where it was to go
-    return OutputError(f"{shown_output(target)}: cannot be written ({os.strerror(number)})")
+    return OutputError(
+        f"{shown_output(target)}: cannot be written ({os.strerror(number)}"
+        f"{'' if limit is None else f': {limit.detail}; {limit.advice}'})"
+    )
 
 
 def remove_created(folders: Sequence[Path]) -> None:
