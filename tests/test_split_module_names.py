@@ -8,8 +8,9 @@ its CSV checks and frames, Parquet files, time columns and column helpers, ``io/
 its topics, topic reader, header stamps, ``inspect`` counts, message leaves and JSON helpers,
 ``io/align.py`` its grid, resampling, output gaps, notes, true modes and ``--split-gaps``
 pieces, ``outputs.py`` (now a package re-exporting its public names) its paths, overlaps,
-temporaries, records, target checks, staging and publishing to modules of their own: after
-the splits,
+temporaries, records, target checks, staging and publishing, ``jobs/batch.py`` its outcomes,
+folder names, job, task of a log, batch folder, plan and summaries to modules of their own:
+after the splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -86,6 +87,18 @@ SPLITS = {
             "folder_targets",
             "staging",
             "publishing",
+        )
+    ),
+    "hybridlog.jobs.batch": tuple(
+        f"hybridlog.jobs.{name}"
+        for name in (
+            "batch_outcomes",
+            "batch_names",
+            "batch_job",
+            "batch_task",
+            "batch_folders",
+            "batch_plan",
+            "batch_summaries",
         )
     ),
 }

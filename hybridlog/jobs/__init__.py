@@ -2,8 +2,8 @@
 
 - :mod:`~hybridlog.jobs.analysis`: ``analyze`` (one log, one estimator, one report folder)
   and ``compare`` (one log, several estimators, a side-by-side table).
-- :mod:`~hybridlog.jobs.batch`: many logs, one report folder each, a summary; its worker
-  processes are in :mod:`~hybridlog.jobs.workers`.
+- :mod:`~hybridlog.jobs.batch`: many logs, one report folder each, a summary; its parts are
+  the ``batch_*`` modules, its worker processes are in :mod:`~hybridlog.jobs.workers`.
 - :mod:`~hybridlog.jobs.cluster`: ``hybridlog cluster``, the mode classifier of paper 001
   fitted on one log and saved as ``centers.json`` with a picture
   (:mod:`~hybridlog.jobs.cluster_plot`); :mod:`~hybridlog.jobs.centers` reads and writes

@@ -256,7 +256,7 @@ def _check_new_folder(folder: str, folders: Sequence[str]) -> None:
     """Refuse a folder of logs that is one given before under another name (a link to it).
 
     Every log in it would be found twice; the same name given twice is refused with the
-    logs' folders (:func:`hybridlog.jobs.batch.folder_names`).
+    logs' folders (:func:`hybridlog.jobs.batch_names.folder_names`).
     """
     for earlier in folders:
         if os.path.abspath(earlier) != os.path.abspath(folder) and os.path.samefile(
@@ -280,7 +280,7 @@ def _one_name_each(found: Sequence[str], given: Sequence[str]) -> tuple[list[str
     the summaries and gated twice.  Of names found in folders, where the user cannot leave
     one out, the log keeps one (not a symbolic link, then the first in natural order) and a
     note names the others; a name given as itself is refused, as a path given twice is
-    (:func:`hybridlog.jobs.batch.folder_names`, which also refuses paths equal as text).
+    (:func:`hybridlog.jobs.batch_names.folder_names`, which also refuses paths equal as text).
 
     Returns
     -------

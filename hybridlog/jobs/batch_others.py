@@ -15,7 +15,7 @@ only the first:
 - ``batch``: another batch's folder (a marker listing no files) inside this one, named
   once: its own summaries name its reports, which are no report of this batch's (neither
   listed as logs left out, nor taken for reports of another estimator that refuse the run,
-  :func:`hybridlog.jobs.batch._check_same_run_kind`).
+  :func:`hybridlog.jobs.batch_plan._check_same_run_kind`).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Run a batch's tasks on a Dask distributed cluster (``hybridlog batch --scheduler``).
 
 The client (the ``hybridlog batch`` process) submits one task per log to the scheduler at
-the given address; Dask workers run :func:`hybridlog.jobs.batch.analyze_log`, which writes the
+the given address; Dask workers run :func:`hybridlog.jobs.batch_task.analyze_log`, which writes the
 log's report folder into the shared output folder atomically (through
 :mod:`hybridlog.outputs`), and send back its outcome; the client assembles the summary.  So
 the workers must see the logs, the model file and the output folder at the same paths as the

@@ -33,7 +33,7 @@ def warm_up_told(
 
     :attr:`WorkReporter.wait <hybridlog.cluster.progress.WorkReporter.wait>`; by default
     the installed reporter's (:func:`~hybridlog.cluster.progress.current_wait`), if any:
-    a batch's worker warms up so before its first log (:mod:`hybridlog.jobs.batch`).
+    a batch's worker warms up so before its first log (:mod:`hybridlog.jobs.batch_task`).
     """
     with (current_wait() if wait is None else wait)(
         f"{estimator.name}: compiling machine code for model {model.name!r}",

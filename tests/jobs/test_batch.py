@@ -30,7 +30,10 @@ from hybridlog.errors import OptionError, OutputError
 from hybridlog.io.formats import logs_in
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
-from hybridlog.jobs.batch import LogOutcome, batch_logs, folder_names, natural_key, run_batch
+from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.batch_logs import batch_logs, natural_key
+from hybridlog.jobs.batch_names import folder_names
+from hybridlog.jobs.batch_outcomes import LogOutcome
 from hybridlog.outputs import MARKER, write_marker
 from tests.support.logfiles import tank_run
 from tests.support.paths import SAMPLE_LOGS

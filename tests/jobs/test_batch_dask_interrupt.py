@@ -16,9 +16,10 @@ from pathlib import Path
 import pytest
 
 from hybridlog.io.writers import write_table
-from hybridlog.jobs import batch as batch_job
-from hybridlog.jobs import dask_backend
-from hybridlog.jobs.batch import LogOutcome, run_batch
+from hybridlog.jobs import batch, batch_task, dask_backend
+from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.batch_job import BatchJob
+from hybridlog.jobs.batch_outcomes import LogOutcome
 from tests.support.logfiles import tank_run
 
 distributed = pytest.importorskip("distributed")
@@ -31,13 +32,13 @@ the held tasks went on by themselves under a loaded machine (the first log, whos
 interrupts the batch, took longer than that) and published reports the test then found."""
 ENDED = threading.Semaphore(0)
 """Released by each held task as it returns."""
-ANALYZE = batch_job.analyze_log
+ANALYZE = batch.analyze_log
 
 
-READ = batch_job.read_log
+READ = batch_task.read_log
 
 
-def held_analysis(job: batch_job.BatchJob, log: str, folder: str) -> LogOutcome:
+def held_analysis(job: BatchJob, log: str, folder: str) -> LogOutcome:
     """The batch's task; ``s2.csv`` held before it starts, ``s3.csv`` while its log is read."""
     if Path(log).name == "s1.csv":
         return ANALYZE(job, log, folder)
@@ -64,8 +65,8 @@ def test_an_interrupted_dask_batch_publishes_no_report_after_it_ended(
         for k in (1, 2, 3)
     ]
     RELEASE.clear()
-    monkeypatch.setattr(batch_job, "analyze_log", held_analysis)
-    monkeypatch.setattr(batch_job, "read_log", held_reading)
+    monkeypatch.setattr(batch, "analyze_log", held_analysis)
+    monkeypatch.setattr(batch_task, "read_log", held_reading)
     request_stop = getattr(dask_backend, "_request_stop", None)
 
     def stop_then_release(*args: object) -> None:

@@ -71,7 +71,7 @@ def test_the_lock_is_held_until_the_summaries_are_written(
     logs: list[Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     out = tmp_path / "out"
-    summarise = batch._summarise
+    summarise = batch.summarise
     tried: list[bool] = []
 
     def summarise_while_tried(root: Path, *args: object, **kwargs: object) -> object:
@@ -85,6 +85,6 @@ def test_the_lock_is_held_until_the_summaries_are_written(
             os.close(fd)
         return summarise(root, *args, **kwargs)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(batch, "_summarise", summarise_while_tried)
+    monkeypatch.setattr(batch, "summarise", summarise_while_tried)
     run_batch(logs, TANK, out_dir=out, estimator="imm")
     assert tried == [False]

@@ -10,7 +10,7 @@ import pytest
 
 from hybridlog.errors import OutputError
 from hybridlog.io.writers import write_table
-from hybridlog.jobs import batch as batch_job
+from hybridlog.jobs import batch_folders
 from hybridlog.jobs.batch import run_batch
 from hybridlog.outputs import MARKER
 from tests.support.logfiles import tank_run
@@ -28,7 +28,7 @@ def test_a_batch_folder_whose_marker_the_disk_cannot_take_is_removed(
         (folder / MARKER).touch()  # created, then nothing fits in it
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(batch_job, "write_marker", full_disk)
+    monkeypatch.setattr(batch_folders, "write_marker", full_disk)
     out = tmp_path / "runs" / "nightly"
     with pytest.raises(OutputError, match=rf"^cannot create output directory {out}: No space"):
         run_batch([log], "three_tank_hstf", out_dir=out)

@@ -16,7 +16,7 @@ from typing import Any
 import pytest
 
 from hybridlog.io.writers import write_table
-from hybridlog.jobs import batch
+from hybridlog.jobs import batch_task
 from hybridlog.jobs.batch import run_batch
 from tests.support.logfiles import tank_run
 
@@ -33,14 +33,14 @@ def test_a_log_changed_between_hash_and_read_fails_with_its_name(
 ) -> None:
     logs = _logs(tmp_path / "logs")
     out = tmp_path / "out"
-    read_log = batch.read_log
+    read_log = batch_task.read_log
 
     def read_after_a_write(log: str, *args: Any, **kwargs: Any) -> Any:
         if Path(log).name == "s1.csv":  # written on after the batch hashed it
             write_table(Path(log), tank_run(steps=40, seed=9).columns, force=True)
         return read_log(log, *args, **kwargs)
 
-    monkeypatch.setattr(batch, "read_log", read_after_a_write)
+    monkeypatch.setattr(batch_task, "read_log", read_after_a_write)
     outcome = run_batch(logs, TANK, out_dir=out, estimator="imm")
 
     by_name = {Path(o.log).name: o for o in outcome.logs}
@@ -50,7 +50,7 @@ def test_a_log_changed_between_hash_and_read_fails_with_its_name(
     assert s1.error is not None and "s1.csv" in s1.error and "changed while" in s1.error
     assert not (out / "s1.csv").exists()
 
-    monkeypatch.setattr(batch, "read_log", read_log)  # the log finished: analysed as it is now
+    monkeypatch.setattr(batch_task, "read_log", read_log)  # the log finished: analysed as it is now
     again = run_batch(logs, TANK, out_dir=out, estimator="imm")
     assert {Path(o.log).name: o.status for o in again.logs} == {
         "s1.csv": "done",

@@ -12,8 +12,9 @@ import pytest
 
 from hybridlog.errors import OptionError
 from hybridlog.io.writers import write_table
-from hybridlog.jobs.batch import folder_names, run_batch
+from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.batch_logs import batch_logs
+from hybridlog.jobs.batch_names import folder_names
 from tests.support.logfiles import tank_run
 
 HINT = "a pattern the shell did not expand (quoted, or it matched nothing)?"

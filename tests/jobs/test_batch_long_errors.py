@@ -33,9 +33,9 @@ def test_a_long_error_keeps_its_reason(tmp_path: Path) -> None:
 
 
 def test_a_long_reason_behind_a_long_path_is_kept_whole() -> None:
-    from hybridlog.jobs.batch import _one_line
+    from hybridlog.jobs.batch_outcomes import error_line
 
     reason = "the reason, " + "x" * 170 + " (the end)"
-    line = _one_line("/logs/" + "p" * 400 + ".csv: " + reason)
+    line = error_line("/logs/" + "p" * 400 + ".csv: " + reason)
     assert len(line) <= 300 and line.startswith("/logs/ppp") and "…" in line
     assert line.endswith(reason)  # the end kept 99 characters: half of this reason

@@ -112,13 +112,14 @@ def test_the_command_says_when_logs_waited_for_memory(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     import hybridlog.jobs.batch as batch
+    from hybridlog.jobs.batch_outcomes import BatchOutcome, LogOutcome
 
-    def run_batch(found: Any, *args: Any, **kwargs: Any) -> batch.BatchOutcome:
+    def run_batch(found: Any, *args: Any, **kwargs: Any) -> BatchOutcome:
         logs = [
-            batch.LogOutcome(str(log), "f", "done", None, None, memory_wait_s=wait)
+            LogOutcome(str(log), "f", "done", None, None, memory_wait_s=wait)
             for log, wait in zip(found.paths, (0.0, 2.5, 1.0), strict=True)
         ]
-        return batch.BatchOutcome(logs=logs, table="", gate_failures=[])
+        return BatchOutcome(logs=logs, table="", gate_failures=[])
 
     monkeypatch.setattr(batch, "run_batch", run_batch)
     logs = [str(SAMPLE_LOGS / name) for name in ("bioplex_pgc.csv", "ice_clutch.csv")]

@@ -17,10 +17,12 @@ from pathlib import Path
 
 import pytest
 
-import hybridlog.jobs.batch as batch
+import hybridlog.jobs.batch_plan as batch_plan
+import hybridlog.jobs.batch_task as batch_task
 from hybridlog.io import ReadOptions
 from hybridlog.io.writers import write_table
-from hybridlog.jobs.batch import LogOutcome, run_batch
+from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.batch_outcomes import LogOutcome
 from hybridlog.jobs.cluster import discover_modes
 from hybridlog.model.builtins import builtin_text
 from tests.support.logfiles import tank_run
@@ -42,7 +44,7 @@ def test_a_worker_that_starts_after_the_model_was_edited_fails_its_logs(tmp_path
     def edit_and_start_a_new_worker(outcome: LogOutcome) -> None:
         if Path(outcome.log).name == "s1.csv":
             model.write_text(builtin_text(TANK) + "\n# edited\n", encoding="utf-8")
-            batch._WARM.clear()  # the next log goes to a worker that has loaded nothing yet
+            batch_task.WARM.clear()  # the next log goes to a worker that has loaded nothing yet
 
     outcome = run_batch(
         logs,
@@ -76,7 +78,7 @@ def test_a_centres_file_edited_while_the_batch_runs_fails_the_later_logs(tmp_pat
     def edit_and_start_a_new_worker(outcome: LogOutcome) -> None:
         if Path(outcome.log).name == "s1.csv":  # the same centres, written another way
             centres.write_text(json.dumps(json.loads(centres.read_text("utf-8")), indent=1))
-            batch._WARM.clear()
+            batch_task.WARM.clear()
 
     outcome = run_batch(
         logs,
@@ -136,13 +138,14 @@ def test_a_msg_dir_is_read_again_only_when_stat_says_it_changed(
         for k in (1, 2, 3)
     ]
     hashed: list[str] = []
-    content_hash = batch.content_hash
+    content_hash = batch_task.content_hash
 
     def counted(path: str, *, what: str = "log") -> str:
         hashed.append(what)
         return content_hash(path, what=what)
 
-    monkeypatch.setattr(batch, "content_hash", counted)
+    monkeypatch.setattr(batch_plan, "content_hash", counted)  # the settings
+    monkeypatch.setattr(batch_task, "content_hash", counted)  # each log's checks
     outcome = run_batch(
         logs,
         TANK,

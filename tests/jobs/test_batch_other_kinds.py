@@ -90,10 +90,10 @@ def test_a_logs_folder_inside_a_comparison_names_the_comparison(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """It was called "the report an earlier run wrote for another log (since renamed...)"."""
-    import hybridlog.jobs.batch as batch
+    import hybridlog.jobs.batch_outcomes as batch_outcomes
 
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr(batch, "_ERROR_LIMIT", 1000)  # pytest's folders: not cut
+    monkeypatch.setattr(batch_outcomes, "_ERROR_LIMIT", 1000)  # pytest's folders: not cut
     write_logs(Path("runs"), ["a.csv"], steps=10)
     run_batch(["runs"], TANK, out_dir="out", estimator="imm")
     compare("runs/a.csv", TANK, ["imm", "hstf"], out_dir="out/cmp")

@@ -19,11 +19,12 @@ import polars as pl
 import pytest
 
 import hybridlog.jit as jit
-import hybridlog.jobs.batch as batch
+import hybridlog.jobs.batch_job as batch_job
 from hybridlog.errors import OutputError
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
 from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.batch_outcomes import BatchOutcome
 from hybridlog.jobs.provenance import library_versions
 from hybridlog.model.builtins import builtin_text
 from hybridlog.outputs.records import record_folder_files
@@ -55,7 +56,7 @@ def stamps(out: Path) -> dict[str, int]:
     return found
 
 
-def statuses(outcome: batch.BatchOutcome) -> dict[str, str]:
+def statuses(outcome: BatchOutcome) -> dict[str, str]:
     return {Path(o.log).name: o.status for o in outcome.logs}
 
 
@@ -195,7 +196,7 @@ def test_resume_redoes_exactly_what_changed(
     assert set(again(sets=["transition_stay=0.9"]).values()) == {"skipped"}
     model.write_text(builtin_text(TANK) + "\n# a comment\n")
     assert set(again().values()) == {"done"}
-    monkeypatch.setattr(batch, "__version__", "99.0")
+    monkeypatch.setattr(batch_job, "__version__", "99.0")
     assert set(again().values()) == {"done"}
     assert set(again().values()) == {"skipped"}
     # a report that records no provenance (written by analyze, or an old batch) is redone
@@ -228,12 +229,12 @@ def test_an_estimator_edited_without_a_new_version_or_a_library_upgraded_is_redo
         jit.package_fingerprint.cache_clear()
         fingerprint = jit.package_fingerprint()
     jit.package_fingerprint.cache_clear()
-    monkeypatch.setattr(batch, "package_fingerprint", lambda: fingerprint)
+    monkeypatch.setattr(batch_job, "package_fingerprint", lambda: fingerprint)
     assert again() == {"done"}
     assert again() == {"skipped"}
     # a library upgraded (the filters' machine code, the solvers): redone too
     upgraded = {**library_versions(), "numba": "99.0"}
-    monkeypatch.setattr(batch, "library_versions", lambda: upgraded)
+    monkeypatch.setattr(batch_job, "library_versions", lambda: upgraded)
     assert again() == {"done"}
     assert again() == {"skipped"}
 

@@ -12,8 +12,8 @@ from typing import Any
 import pytest
 
 from hybridlog.estimators.result import Fallbacks
-from hybridlog.jobs import batch
 from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.batch_outcomes import BatchOutcome
 from tests.jobs.test_batch_resume import TANK, statuses, write_logs
 
 
@@ -64,7 +64,7 @@ def test_summaries_of_a_smoothed_batch_give_the_filters_metrics_beside_the_offli
     (tmp_path / "logs" / "s4.csv").write_text("t,u,y1\n0,1,2\n")
     out, junit = tmp_path / "out", tmp_path / "junit.xml"
 
-    def run(**options: object) -> batch.BatchOutcome:
+    def run(**options: object) -> BatchOutcome:
         return run_batch(
             [tmp_path / "logs"], TANK, out_dir=out, estimator="imm", junit=junit, **options
         )

@@ -83,9 +83,9 @@ def test_the_same_file_of_another_batch_folder_stays(
     since (the same SHA-256): b's current results, gone.  The logs' wall times, in the
     file, are held alike here, as they may come out alike to the millisecond.
     """
-    from hybridlog.jobs import batch
+    from hybridlog.jobs import batch_task
 
-    monkeypatch.setattr(batch, "time", SimpleNamespace(perf_counter=lambda: 1.0))
+    monkeypatch.setattr(batch_task, "time", SimpleNamespace(perf_counter=lambda: 1.0))
     logs = write_logs(tmp_path / "logs", ["s1.csv"], steps=20)
     junit = tmp_path / "junit.xml"
     _batch(logs, tmp_path / "a", junit)

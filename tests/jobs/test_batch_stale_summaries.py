@@ -17,6 +17,8 @@ import pytest
 import hybridlog.jobs.batch as batch
 from hybridlog.errors import HybridlogError
 from hybridlog.io.writers import write_table
+from hybridlog.jobs.batch_job import BatchJob
+from hybridlog.jobs.batch_outcomes import LogOutcome
 from tests.support.logfiles import tank_run
 
 TANK = "three_tank_hstf"
@@ -49,7 +51,7 @@ def test_a_batch_stopped_half_way_leaves_no_summary_of_the_run_before(
     assert all(a == b for a, b in _vafs(out).values())
     analysed = batch.analyze_log
 
-    def stopped_at_the_third(job: batch.BatchJob, log: str, folder: str) -> batch.LogOutcome:
+    def stopped_at_the_third(job: BatchJob, log: str, folder: str) -> LogOutcome:
         if log.endswith("s3.csv"):
             raise KeyboardInterrupt
         return analysed(job, log, folder)

@@ -9,7 +9,9 @@ import pytest
 
 import hybridlog.jobs.batch as batch
 from hybridlog.io.writers import write_table
-from hybridlog.jobs.batch import LogOutcome, run_batch
+from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.batch_job import BatchJob
+from hybridlog.jobs.batch_outcomes import LogOutcome
 from tests.support.logfiles import tank_run
 
 
@@ -26,7 +28,7 @@ def test_a_task_run_again_in_the_same_batch_is_done_and_a_later_run_skips_it(
     ]
     analyze = batch.analyze_log
 
-    def twice(job: batch.BatchJob, log: str, folder: str) -> LogOutcome:
+    def twice(job: BatchJob, log: str, folder: str) -> LogOutcome:
         analyze(job, log, folder)  # the result Dask lost with its worker
         return analyze(job, log, folder)
 

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-import hybridlog.jobs.batch as batch
+import hybridlog.jobs.batch_outcomes as batch_outcomes
 from hybridlog.errors import excerpt
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.batch_others import other_folders
@@ -116,7 +116,7 @@ def test_a_logs_folder_holding_the_report_of_a_log_moved_since_names_it(
     run_batch(["runs"], TANK, out_dir="out")
     Path("runs/deep/c.csv").rename("runs/c.csv")
     Path("runs/deep/metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
-    monkeypatch.setattr(batch, "_ERROR_LIMIT", 1000)  # pytest's folders: not cut in the middle
+    monkeypatch.setattr(batch_outcomes, "_ERROR_LIMIT", 1000)  # pytest's folders: not cut
 
     again = run_batch(["runs"], TANK, out_dir="out")
 

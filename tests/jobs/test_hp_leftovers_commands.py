@@ -17,7 +17,7 @@ from typing import Any
 import pytest
 
 from hybridlog.errors import LogError
-from hybridlog.jobs import analysis, batch
+from hybridlog.jobs import analysis, batch_task
 from hybridlog.jobs.analysis import analyze, compare
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.simulate import simulate_log
@@ -85,7 +85,7 @@ def test_a_batch_log_is_refused_before_it_waits_for_memory_or_runs(
     no_command: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     model, log = no_command
-    monkeypatch.setattr(batch, "memory_reserved", _no_run)
+    monkeypatch.setattr(batch_task, "memory_reserved", _no_run)
     outcome = run_batch([log], model, out_dir=tmp_path / "batch", estimator="unknown-mode")
     (failed,) = outcome.logs
     assert failed.status == "failed" and failed.error is not None
