@@ -26,7 +26,6 @@ from hybridlog.jobs.batch_outcomes import LogOutcome
 from hybridlog.outputs import (
     MARKER,
     check_dir_target,
-    is_ours,
     recorded_files,
     remove_stale_temporaries,
     temporary_name,
@@ -100,12 +99,7 @@ def prepare_root(root: Path, folders: Sequence[Path], locks: contextlib.ExitStac
     should the batch be refused later (:func:`~hybridlog.jobs.batch_plan.plan`).
     """
     # creatable (its name, its parent), not a file or a link, not someone else's folder
-    check_dir_target(root, force=True, replacing=False)
-    if root.exists() and any(root.iterdir()) and not is_ours(root):
-        raise OutputError(
-            f"output directory {root} holds files hybridlog did not write (no {MARKER} "
-            "file); choose another --out or empty the folder yourself"
-        )
+    check_dir_target(root, force=True, replacing=False)  # a folder of someone else's refused
     if root.exists() and recorded_files(root) is not None:
         # its marker lists the files of one run (analyze, compare, a simulated bag): the
         # batch's folders and summaries went in among them, without --force and without a word
