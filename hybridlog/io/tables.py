@@ -49,7 +49,7 @@ from hybridlog.io.csv_frames import (
 from hybridlog.io.csv_header import header_names
 from hybridlog.io.csv_lines import check_record_widths, check_truncated
 from hybridlog.io.csv_numbers import parse_floats, texts_among_numbers
-from hybridlog.io.csv_tally import ColumnTally, cell_numbers, tally_block
+from hybridlog.io.csv_tally import ColumnTally, tally_block
 from hybridlog.io.exact import (
     WHOLE_NUMBER,
     any_beyond_exact,
@@ -898,10 +898,10 @@ class TableSource:
         check_record_widths(self._file, self._columns)
         for frame in csv_text_frames(self._file, list(self._columns), checked=True):
             first = tallies[0].rows
-            tally_block(tallies, frame)
-            if self._time_column is not None:
+            numbers = tally_block(tallies, frame, keep=self._time_column)
+            if numbers is not None and self._time_column is not None:
                 cells = frame.get_column(self._time_column)
-                seconds.append(cell_numbers(cells))
+                seconds.append(numbers)
                 empty = empty_cells(cells)
                 if empty.any():
                     missing.append(np.flatnonzero(empty) + first)
