@@ -48,7 +48,7 @@ from hybridlog.io.csv_frames import (
 from hybridlog.io.csv_header import header_names
 from hybridlog.io.csv_lines import check_record_widths, check_truncated
 from hybridlog.io.csv_numbers import parse_floats, texts_among_numbers
-from hybridlog.io.csv_tally import ColumnTally
+from hybridlog.io.csv_tally import ColumnTally, tally_block
 from hybridlog.io.exact import (
     WHOLE_NUMBER,
     any_beyond_exact,
@@ -898,12 +898,10 @@ class TableSource:
         check_record_widths(self._file, self._columns)
         for frame in csv_text_frames(self._file, list(self._columns), checked=True):
             first = tallies[0].rows
-            for tally in tallies:
-                cells = frame.get_column(tally.name)
-                parsed = tally.add(cells)
-                if tally.name != self._time_column:
-                    continue
-                seconds.append(parsed)
+            numbers = tally_block(tallies, frame, keep=self._time_column)
+            if numbers is not None and self._time_column is not None:
+                cells = frame.get_column(self._time_column)
+                seconds.append(numbers)
                 empty = empty_cells(cells)
                 if empty.any():
                     missing.append(np.flatnonzero(empty) + first)
@@ -937,7 +935,7 @@ class TableSource:
                 column_info(tally.name, tally.dtype, tally.values(), present, time_ns, resolution)
             )
             if columns[-1]["nonfinite"] is not None and tally.name != self._time_column:
-                found = self._unheld_value(*tally.suspects())
+                found = self._unheld_value(*tally.suspects()) if tally.suspicious else None
                 problems.extend([found] if found is not None else [])
             elif tally.name != self._time_column:  # the time's own problem is said above
                 problems.extend(texts_among_numbers(tally))
