@@ -24,15 +24,14 @@ import os
 from pathlib import Path
 from typing import Any
 
-from hybridlog.errors import OutputError, excerpt
+from hybridlog.errors import excerpt
 from hybridlog.outputs import (
     MARKER,
     PathLike,
     output_path,
-    record_path,
     temporary_name,
 )
-from hybridlog.outputs.records import kept_time
+from hybridlog.outputs.records import kept_time, remove_written
 from hybridlog.report.junit import is_junit_of_ours
 
 WHOLE_PATH = 4096
@@ -103,14 +102,9 @@ def withdraw_previous_junit(root: Path, junit: PathLike | None) -> str | None:
     previous = _recorded(root)
     if previous is None or (junit is not None and output_path(junit) == output_path(previous)):
         return None
-    try:
-        previous.unlink(missing_ok=True)
-        record_path(previous).unlink(missing_ok=True)
-    except OSError as err:
-        raise OutputError(
-            f"{excerpt(str(previous))[1:-1]}: cannot remove the previous run's JUnit file, "
-            f"which would present its results as this run's: {err.strerror or err}"
-        ) from err
+    remove_written(
+        previous, "the previous run's JUnit file", "would present its results as this run's"
+    )
     instead = "none" if junit is None else f"--junit {excerpt(os.fspath(junit))}"
     return (  # the file removed named whole (escaped, never cut): the user may look for it
         f"removed {excerpt(str(previous), limit=WHOLE_PATH)}, the JUnit file of the previous "

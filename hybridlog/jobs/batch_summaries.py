@@ -13,13 +13,14 @@ import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from hybridlog.errors import OutputError, as_name, as_text, excerpt, first_few, names_apart
+from hybridlog.errors import as_name, as_text, excerpt, first_few, names_apart
 from hybridlog.jobs.batch_job import BatchJob
 from hybridlog.jobs.batch_names import SUMMARY_NAMES
 from hybridlog.jobs.batch_others import OtherFolder
 from hybridlog.jobs.batch_outcomes import BatchOutcome, LogOutcome
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import PathLike, atomic_files, output_path, record_path, wrote_file
+from hybridlog.outputs.records import remove_written
 from hybridlog.report import evaluate_gates
 from hybridlog.report.gates import Gate
 from hybridlog.report.junit import is_junit_of_ours, write_junit
@@ -75,14 +76,7 @@ def withdraw_summaries(root: Path, junit: PathLike | None) -> None:
     for target in targets:
         if not target.is_file() or target.is_symlink() or not ours(target):
             continue
-        try:
-            target.unlink(missing_ok=True)
-            record_path(target).unlink(missing_ok=True)
-        except OSError as err:
-            raise OutputError(
-                f"{excerpt(str(target))[1:-1]}: cannot remove the previous run's file, which "
-                f"would be left beside this run's reports: {err.strerror or err}"
-            ) from err
+        remove_written(target, "the previous run's file", "would be left beside this run's reports")
 
 
 def _made_from(outcome: LogOutcome) -> str | None:

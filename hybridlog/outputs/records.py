@@ -22,6 +22,7 @@ from collections.abc import Collection, Mapping
 from pathlib import Path
 
 from hybridlog import __version__
+from hybridlog.errors import OutputError, excerpt
 from hybridlog.outputs.paths import MARKER, PathLike, path_present
 from hybridlog.outputs.temporaries import temporary_name
 
@@ -129,6 +130,25 @@ def _listed_unchanged(recorded: object, identity: Mapping[str, int], path: Path)
 def record_path(target: Path) -> Path:
     """Where the record of a file hybridlog wrote lies: ``.<name>.hybridlog`` beside it."""
     return target.with_name(f".{target.name}{MARKER}")
+
+
+def remove_written(target: Path, what: str, left: str) -> None:
+    """Remove ``target``, a file hybridlog wrote, and its record (either may be gone already).
+
+    Raises
+    ------
+    OutputError
+        Where the system refuses, naming ``target`` as ``what`` (``the previous run's file``)
+        and what leaving it would do (``left``).
+    """
+    try:
+        target.unlink(missing_ok=True)
+        record_path(target).unlink(missing_ok=True)
+    except OSError as err:
+        raise OutputError(
+            f"{excerpt(str(target))[1:-1]}: cannot remove {what}, which {left}: "
+            f"{err.strerror or err}"
+        ) from err
 
 
 def file_identity(path: Path) -> dict[str, int] | None:

@@ -138,3 +138,23 @@ def test_a_remounted_file_system_keeps_hybridlogs_files_its_own(tmp_path: Path) 
     assert wrote_file(log)  # a copy that kept its content and time (cp -a) is still ours
     record_path(log).write_text(json.dumps({**record, "sha256": "0" * 64}))
     assert not wrote_file(log)  # another content is not
+
+
+def test_a_written_file_that_cannot_be_removed_is_one_line_naming_it(tmp_path: Path) -> None:
+    """batch's summaries and JUnit file of a previous run are removed with their records
+    (one ``remove_written``); where the system refuses, the file and the consequence are said."""
+    from hybridlog.errors import OutputError
+    from hybridlog.outputs.records import record_path, remove_written
+
+    gone = tmp_path / "summary.md"
+    remove_written(gone, "the previous run's file", "would stay")  # nothing there: no error
+    stuck = tmp_path / "summary.csv"
+    stuck.mkdir()  # a folder where the file was: unlink refuses it
+    (stuck / "x").write_text("x")
+    record_path(stuck).write_text("{}")
+    with pytest.raises(OutputError) as refused:
+        remove_written(stuck, "the previous run's file", "would be left beside this run's")
+    assert str(refused.value).startswith(
+        f"{stuck}: cannot remove the previous run's file, which would be left beside this run's: "
+    )
+    assert "\n" not in str(refused.value)
