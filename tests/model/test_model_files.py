@@ -497,7 +497,10 @@ def test_a_long_expression_of_many_numbers_is_read_in_linear_time():
     product = "x*" + "*".join(["(1+10**-20)**60"] * 300)
     with pytest.raises(ModelError, match=r"^k: its product of exact numbers folds to an exact"):
         parse_expression(product, X, key="k")
-    assert time.perf_counter() - started < 2.0
+    # the two took 9 s and 17 s before (a quadratic split, a fraction folded factor by
+    # factor); about 0.5 s now, and 3.5 s was seen on a loaded machine: the bound is the
+    # regression's, not a benchmark's (benchmarks/ times the commands)
+    assert time.perf_counter() - started < 8.0
 
 
 def test_complex_simulation_input_and_matrix_entry_are_refused():
