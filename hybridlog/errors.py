@@ -193,21 +193,39 @@ def shortened(text: str, limit: int, *, end_share: float = 1 / 3) -> str:
     A longer one is cut in the middle, where a message says least (it starts with the file or
     option and ends with what is wrong), the end keeping ``end_share`` of the room; the cut
     falls between words where one is near, so that no number is cut in two (``t = 0.0015 s``
-    read ``t = 0.… s``), and within a word only where there is none (a quoted 16 KB line).
+    read ``t = 0.… s``), and within a word only where there is none (a quoted 16 KB line),
+    never between a letter and its combining marks (:func:`_joined`).
     """
     line = " ".join(text.split())
     if len(line) <= limit:
         return line
     tail_room = round((limit - 1) * end_share)
     head_room = limit - 1 - tail_room
-    head, tail = line[:head_room], line[len(line) - tail_room :]
+    start = len(line) - tail_room
+    head, tail = line[:head_room], line[start:]
     space = head.rfind(" ")
     if space >= head_room - head_room // 4:  # a word boundary within the last quarter
         head = head[: space + 1]
+    while head and _joined(line, len(head)):  # a mark kept with its letter ('é', not 'e')
+        head = head[:-1]
     space = tail.find(" ")
     if 0 <= space <= tail_room // 4:
         tail = tail[space:]
+    while tail and _joined(line, len(line) - len(tail)):  # no mark on the ellipsis
+        tail = tail[1:]
     return head + "…" + tail
+
+
+def _joined(line: str, at: int) -> bool:
+    """Whether ``line[at]`` belongs with the character before it.
+
+    A combining mark (an accent, a variation selector), a zero-width joiner or the character
+    after one: a cut there left an accent on the ellipsis, or half an emoji.
+    """
+    joiner = "\u200d"
+    return 0 < at < len(line) and (
+        unicodedata.category(line[at]).startswith("M") or joiner in (line[at], line[at - 1])
+    )
 
 
 ABSOLUTE_FOLDER = (

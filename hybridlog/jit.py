@@ -34,7 +34,7 @@ from typing import Any, TypeVar, cast
 
 from hybridlog import __version__
 from hybridlog.errors import OutputError, absolute_folder_expected, environment_error
-from hybridlog.limits import limit_reached
+from hybridlog.limits import remedy
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -363,12 +363,7 @@ def _name_failed_saves(folder: Path) -> None:
         try:
             save(self, sig, data)
         except OSError as err:
-            limit = limit_reached(err)  # ulimit -f: no folder writes it
-            advice = (
-                "set HYBRIDLOG_CACHE_DIR to a writable folder"
-                if limit is None
-                else f"{limit.detail}; {limit.advice}"
-            )
+            advice = remedy(err, "set HYBRIDLOG_CACHE_DIR to a writable folder")  # ulimit -f
             raise OutputError(
                 f"cache folder {folder}: cannot write machine code ({err.strerror or err}); "
                 f"{advice}"

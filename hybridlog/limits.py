@@ -13,7 +13,7 @@ import traceback
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["Limit", "limit_reached", "owner_masked", "umask"]
+__all__ = ["Limit", "limit_reached", "owner_masked", "remedy", "umask"]
 
 _STARTERS = frozenset({"popen_fork.py", "forkserver.py", "subprocess.py", "threading.py"})
 """The standard library's modules where a process or thread is started."""
@@ -51,10 +51,17 @@ def limit_reached(err: OSError) -> Limit | None:
     system's own largest file): a write past it.
     """
     if err.errno == errno.EFBIG and (size := _soft(resource.RLIMIT_FSIZE)) != "unlimited":
+        # bash's ulimit -f counts blocks of 1,024 bytes; a limit of 1,000 (prlimit, setrlimit)
+        # read "ulimit -f 0", which allows no write at all
+        blocks = int(size) // 1024
+        shown = (
+            f": ulimit -f {blocks}"
+            if int(size) % 1024 == 0
+            else " (not a whole number of ulimit -f's blocks of 1,024 bytes)"
+        )
         return Limit(
             "a file reached the size limit",
-            f"this process may write files of {int(size):,} bytes at most: "
-            f"ulimit -f {int(size) // 1024}",
+            f"this process may write files of {int(size):,} bytes at most{shown}",
             "raise the limit (ulimit -f unlimited)",
         )
     if err.errno == errno.EMFILE:
@@ -78,6 +85,16 @@ def limit_reached(err: OSError) -> Limit | None:
             "raise the limit (ulimit -u), end other processes of this user, or run fewer --jobs",
         )
     return None
+
+
+def remedy(err: OSError, otherwise: str) -> str:
+    """What to do about ``err``: the limit it met and how to raise it, else ``otherwise``.
+
+    Where a folder could not be written (the caches: "set HYBRIDLOG_CACHE_DIR to a writable
+    folder"), which no other folder mends when the limit was met.
+    """
+    limit = limit_reached(err)
+    return otherwise if limit is None else f"{limit.detail}; {limit.advice}"
 
 
 def umask() -> int | None:

@@ -128,6 +128,36 @@ def _origin(model: HybridModel) -> str:
     return model.origin or model.name
 
 
+def scenario_settings(
+    model: HybridModel, scenario: Scenario, settings: Mapping[str, float] | None
+) -> StepValues:
+    """The scenario's parameter values with ``settings`` (``--set``), its steps checked with them.
+
+    Also asked by ``simulate`` before it checks its output (a bad ``--set`` is told before
+    "already exists"), as the loader checked the scenario without them.
+
+    Raises
+    ------
+    OptionError
+        A setting that is not a scenario parameter, or that leaves a step unplayable.
+    """
+    from hybridlog.model.scenario import StepValues, check_timing
+
+    origin = _origin(model)
+    try:
+        values = scenario.parameter_values(settings)
+    except KeyError as err:
+        known = ", ".join(scenario.parameters) or "none"
+        raise OptionError(
+            f"--set {excerpt(err.args[0])[1:-1]}: neither a scenario parameter of {origin} "
+            f"(simulation.parameters: {known}) nor a parameter of the model (parameters: "
+            f"{', '.join(model.parameters) or 'none'})"
+        ) from err
+    at = StepValues(origin, values, tuple(settings or ()))
+    check_timing(scenario, at)  # the whole scenario, as the loader checked it without --set
+    return at
+
+
 def simulate_components(
     model: HybridModel,
     *,
@@ -161,7 +191,6 @@ def simulate_components(
         every variable, an algebraic loop through the controller, a diverging run, or a
         measured output without a measurement noise covariance in the model file.
     """
-    from hybridlog.model.scenario import StepValues, check_timing
     from hybridlog.simulate import (
         check_run,
         check_seed,
@@ -177,19 +206,10 @@ def simulate_components(
     if not model.has_components or scenario is None:
         raise ModelError(f"{origin}: components: not a components model")
     model.require_measurement_noise("simulate draws the outputs' measurement noise")
-    try:
-        values = scenario.parameter_values(settings)
-    except KeyError as err:
-        known = ", ".join(scenario.parameters) or "none"
-        raise OptionError(
-            f"--set {excerpt(err.args[0])[1:-1]}: neither a scenario parameter of {origin} "
-            f"(simulation.parameters: {known}) nor a parameter of the model (parameters: "
-            f"{', '.join(model.parameters) or 'none'})"
-        ) from err
+    at = scenario_settings(model, scenario, settings)
+    values = at.values
     if steps is not None and steps <= 0:
         raise OptionError("--steps: must be positive")
-    at = StepValues(origin, values, tuple(settings or ()))
-    check_timing(scenario, at)  # the whole scenario, as the loader checked it without --set
     n_steps = steps or scenario.steps or 100
     rows = n_steps + 1
     where = "--steps" if steps else f"{origin}: simulation.steps"

@@ -101,6 +101,21 @@ def test_a_long_line_is_cut_between_words_not_inside_a_number() -> None:
     assert line.endswith(" word is wrong") and " … " in line
 
 
+@pytest.mark.parametrize(
+    "unit", ["e\u0301", "n\u0303\u0301", "\u2764\ufe0f", "\U0001f469\u200d\U0001f467"]
+)
+@pytest.mark.parametrize("end_share", [1 / 3, 2 / 3])
+def test_a_cut_never_parts_a_letter_from_its_combining_marks(unit: str, end_share: float) -> None:
+    """A word of accented letters (a path, a quoted cell) cut anywhere: the tail began with
+    a combining accent, which sat on the ellipsis ('ééé…\u0301éé'), or half an emoji."""
+    for limit in range(20, 60):
+        line = shortened(unit * 200, limit, end_share=end_share)
+        head, tail = line.split("…")
+        assert len(line) <= limit
+        assert head == unit * (len(head) // len(unit)), (limit, line)
+        assert tail == unit * (len(tail) // len(unit)), (limit, line)
+
+
 @given(
     words=st.lists(st.text("ab1.", min_size=1, max_size=12), min_size=1, max_size=200),
     limit=st.integers(8, 300),

@@ -151,3 +151,46 @@ def test_a_file_past_the_size_limit_names_ulimit_f(tmp_path: Path) -> None:
     assert limit.detail == "this process may write files of 4,096 bytes at most: ulimit -f 4"
     if soft == resource.RLIM_INFINITY:
         assert limit_reached(OSError(errno.EFBIG, os.strerror(errno.EFBIG))) is None
+
+
+def test_a_size_limit_not_of_whole_blocks_is_not_written_as_ulimit_f_rounded_down(
+    tmp_path: Path,
+) -> None:
+    """``prlimit --fsize=1000``: bash's ``ulimit -f`` counts blocks of 1,024 bytes, and the
+    line read "1,000 bytes at most: ulimit -f 0", a limit that allows no write at all."""
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (1000, hard))
+    try:
+        with pytest.raises(OSError) as raised, (tmp_path / "big").open("wb") as handle:
+            handle.write(b"x" * 10_000)
+            handle.flush()
+        limit = limit_reached(raised.value)
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+    assert limit is not None
+    assert limit.detail == (
+        "this process may write files of 1,000 bytes at most (not a whole number of "
+        "ulimit -f's blocks of 1,024 bytes)"
+    )
+
+
+def test_the_model_cache_past_the_size_limit_names_the_limit_not_the_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``ulimit -f 1`` and a cold cache: the model's first cache file met the limit, and the
+    line said "set HYBRIDLOG_CACHE_DIR to a writable folder", which no folder mends."""
+    from hybridlog.errors import OutputError
+    from hybridlog.model.compiled import store
+
+    monkeypatch.setenv("HYBRIDLOG_CACHE_DIR", str(tmp_path / "cache"))
+    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (1024, hard))
+    try:
+        with pytest.raises(OutputError) as raised:
+            store(tmp_path / "cache" / "model_x.json", "x" * 10_000, replace=False)
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+    assert str(raised.value).endswith(
+        "cannot write model_x.json (File too large); this process may write files of 1,024 "
+        "bytes at most: ulimit -f 1; raise the limit (ulimit -f unlimited)"
+    )

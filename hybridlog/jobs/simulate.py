@@ -31,6 +31,7 @@ from hybridlog.io.bag_writers import (
 from hybridlog.jobs import arguments
 from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.model.reads import refuse_unread_by_simulation
+from hybridlog.model.schedule import parse_schedule
 from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike
 from hybridlog.simulate import (
@@ -131,7 +132,8 @@ def simulate_log(
     given = {name: set_text(name, text) for name, text in texts.items()}
     if disturbance is not None:
         given[_DISTURBANCE] = f"--disturbance {excerpt(disturbance.strip())[1:-1]}"
-    _refuse_options_unread(model, schedule, parsed is not None, noise, values)
+    with given_in_errors(given, (ModelError,)):  # as the simulation's own errors
+        _refuse_options_unread(model, schedule, parsed is not None, noise, values)
     # Every check of the output runs before the simulation, after those of what it reads:
     # a bad --set was told only once the output, refused first, was out of the way
     chosen = check_log_target(out, format=log_format, encoding=encoding, force=force, inputs=inputs)
@@ -222,16 +224,24 @@ def _refuse_options_unread(
     schedule: str | None,
     disturbance: bool,
     noise: bool,
-    values: Mapping[str, object],
+    values: Mapping[str, float],
 ) -> None:
     """Refuse the options ``model``'s simulation would not read, before any output is checked.
 
     A components model schedules its components' modes and sets its noise and unmodelled
     behaviours in its ``[simulation]`` table (no ``--schedule``, ``--disturbance`` or
     ``--no-noise``); only it has scenario parameters (``values``, the ``--set`` names that
-    are not the model's parameters).
+    are not the model's parameters), which must be its scenario's.  Another model's
+    ``--schedule`` must name its modes.  (``simulate bioplex_pgc --out old.csv --set nosuch=1``
+    and ``--schedule garbage`` said "already exists", and the bad option only after --force.)
     """
     name = model.origin or model.name
+    if model.has_components and model.scenario is not None and values:
+        from hybridlog.simulate_components import scenario_settings
+
+        scenario_settings(model, model.scenario, values)
+    if not model.has_components and schedule is not None and not model.state_driven:
+        parse_schedule(schedule, model.mode_ids)  # a state-driven model's is refused as such
     if model.has_components:
         if schedule is not None:
             raise OptionError(

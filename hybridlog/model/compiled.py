@@ -46,6 +46,7 @@ import numpy as np
 
 from hybridlog.errors import OutputError
 from hybridlog.jit import cache_dir
+from hybridlog.limits import remedy
 from hybridlog.model.keys import known_key, remember_key, sympy_release
 from hybridlog.signals import FloatArray
 
@@ -106,9 +107,11 @@ def store(path: Path, text: str, *, replace: bool) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         _write_once(path, text, replace=replace)
     except OSError as err:
+        # under ulimit -f 1 a cold cache's first file met the limit, which no folder mends
+        advice = remedy(err, "set HYBRIDLOG_CACHE_DIR to a writable folder")
         raise OutputError(
             f"cache folder {cache_dir()}: cannot write {path.name} ({err.strerror or err}); "
-            "set HYBRIDLOG_CACHE_DIR to a writable folder"
+            f"{advice}"
         ) from err
 
 

@@ -408,7 +408,10 @@ def parse_expression(
         complex_value = isinstance(err, _ComplexValueError)
         root = err.node if isinstance(err, _ComplexValueError) else tree.body
         culprits = _parameters_used(root, symbols, converter, _no_problem, every=complex_value)
-        raise ModelError(f"{key}: {_unquoted(err, 200)}{culprits}") from err
+        # a complex value's message is bounded by its parts (their excerpts, the real root
+        # written whole): cut at 200, a real root it suggested lost its start
+        limit = _COMPLEX_MESSAGE_LIMIT if complex_value else 200
+        raise ModelError(f"{key}: {_unquoted(err, limit)}{culprits}") from err
     except RecursionError as err:
         raise ModelError(f"{key}: expression too long or nested too deeply") from err
     if not isinstance(expression, sympy.Expr):
@@ -874,7 +877,11 @@ class _Converter:
         written = self.segment(node.left) or ast.unparse(node.left)
         power = f"abs({written})**({self.segment(node.right) or ast.unparse(node.right)})"
         real = power if exponent.p % 2 == 0 else f"sign({written})*{power}"
-        return f"; for its real root write {excerpt(real, 80)}"
+        if len(real) <= _REAL_ROOT_LIMIT and real.isprintable():
+            return f"; for its real root write '{real}'"
+        # cut, it was no longer what to write: 'for i…(coefficient_tank1)*abs(...' lost sign
+        root = f"abs(b)**({exponent})" if exponent.p % 2 == 0 else f"sign(b)*abs(b)**({exponent})"
+        return f"; for its real root write {excerpt(root, 60)}, b its base"
 
     def real(self, node: ast.expr, value: sympy.Expr, hint: str = "") -> sympy.Expr:
         """``value``, the power or function ``node``, refused where it is a complex constant.
@@ -907,6 +914,14 @@ class _Converter:
                 node,
             )
         return value
+
+
+_REAL_ROOT_LIMIT = 80
+"""Longest real root :meth:`_Converter._real_root` writes out (a longer one in terms of ``b``)."""
+
+
+_COMPLEX_MESSAGE_LIMIT = 300
+"""Longest :class:`_ComplexValueError` message kept whole (its parts hold at most 265)."""
 
 
 class _ComplexValueError(ValueError):

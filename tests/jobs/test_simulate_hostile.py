@@ -258,3 +258,27 @@ def test_options_a_components_model_does_not_read_are_refused_before_its_output(
     with pytest.raises(OptionError, match="^" + re.escape(said)):
         simulate_log("bioplex_pgc", out, steps=10, **options)
     assert out.read_text(encoding="utf-8") == "the user's\n"
+
+
+@pytest.mark.parametrize(
+    ("model", "options", "said"),
+    [
+        ("three_tank_hstf", {"schedule": "garbage"}, "--schedule: 'garbage' is not MODE:STEPS"),
+        ("three_tank_hstf", {"schedule": "9:10"}, "--schedule: unknown mode '9'"),
+        ("bioplex_pgc", {"settings": ["nosuch=1"]}, "--set nosuch: neither a scenario parameter"),
+        ("bioplex_pgc", {"settings": ["drift_start=-5"]}, "--set drift_start: bioplex_pgc: "),
+    ],
+)
+def test_a_bad_schedule_or_scenario_setting_is_refused_before_the_output(
+    model: str, options: dict[str, object], said: str, tmp_path: Path
+) -> None:
+    """``--schedule garbage`` and a components model's unknown or unplayable scenario
+    ``--set`` were checked as the simulation ran, after the output: "already exists" first."""
+    from hybridlog.errors import OptionError
+    from hybridlog.jobs.simulate import simulate_log
+
+    out = tmp_path / "existing.csv"
+    out.write_text("the user's\n", encoding="utf-8")
+    with pytest.raises(OptionError, match="^" + re.escape(said)):
+        simulate_log(model, out, steps=10, **options)  # type: ignore[arg-type]
+    assert out.read_text(encoding="utf-8") == "the user's\n"

@@ -338,6 +338,26 @@ def test_a_negative_numbers_odd_root_is_told_how_to_write_its_real_root(
     assert parse_expression(written, symbols, key="k") == real_root
 
 
+@pytest.mark.parametrize(
+    ("name", "real_root"),
+    [
+        (
+            "outflow_coefficient_tank1",
+            "sign(outflow_coefficient_tank1)*abs(outflow_coefficient_tank1)**(1/3)",
+        ),
+        ("outflow_coefficient_of_tank_one_x", "sign(b)*abs(b)**(1/3)"),
+    ],
+)
+def test_the_real_root_suggested_is_never_cut(name: str, real_root: str) -> None:
+    """The message was cut at 200 characters and the suggestion at 80: behind a parameter of
+    25 characters it read 'for i…(outflow_coefficient_tank1)*abs(...', its sign lost; one too
+    long to write out is written of its base b."""
+    with pytest.raises(ModelError) as refused:
+        parse_expression(f"{name}**(1/3)", {**X, name: sympy.Integer(-8)}, key="modes.a.flow")
+    assert f"; for its real root write '{real_root}'" in str(refused.value)
+    assert "…" not in str(refused.value)
+
+
 def test_no_real_root_is_suggested_for_an_even_root_or_an_inexact_exponent() -> None:
     for expression in ("(-8)**(1/2)", "(-8)**0.5", "(-8)**(1/4)"):
         with pytest.raises(ModelError) as refused:
