@@ -22,8 +22,8 @@ from collections.abc import Collection, Mapping
 from pathlib import Path
 
 from hybridlog import __version__
-from hybridlog.errors import OutputError, excerpt
-from hybridlog.outputs.paths import MARKER, PathLike, path_present
+from hybridlog.errors import OutputError
+from hybridlog.outputs.paths import MARKER, PathLike, path_present, shown_path
 from hybridlog.outputs.temporaries import temporary_name
 
 
@@ -145,9 +145,8 @@ def remove_written(target: Path, what: str, left: str) -> None:
         target.unlink(missing_ok=True)
         record_path(target).unlink(missing_ok=True)
     except OSError as err:
-        raise OutputError(
-            f"{excerpt(str(target))[1:-1]}: cannot remove {what}, which {left}: "
-            f"{err.strerror or err}"
+        raise OutputError(  # the path whole, as the outputs' other refusals name theirs
+            f"{shown_path(target)}: cannot remove {what}, which {left}: {err.strerror or err}"
         ) from err
 
 
