@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from hybridlog.cli_process import _failure
-from hybridlog.limits import limit_reached
+from hybridlog.limits import Limit, limit_reached
 from tests.conftest import Main
 
 
@@ -134,11 +134,11 @@ def test_a_parallel_batch_under_a_masking_umask_starts_no_forkserver(tmp_path: P
     assert not out.exists()
 
 
-def test_a_file_past_the_size_limit_names_ulimit_f(tmp_path: Path) -> None:
-    """A real ``EFBIG`` under ``ulimit -f``: the limit and its value, in ``ulimit``'s blocks;
-    without a limit (the file system's own largest file) none is named."""
+def _past_the_size_limit(tmp_path: Path, size: int) -> tuple[OSError, Limit | None, int]:
+    """A real ``EFBIG``: a write past a file size limit of ``size`` bytes (``setrlimit``),
+    :func:`limit_reached` of it while the limit holds, and the soft limit before (restored)."""
     soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
-    resource.setrlimit(resource.RLIMIT_FSIZE, (4096, hard))
+    resource.setrlimit(resource.RLIMIT_FSIZE, (size, hard))
     try:
         with pytest.raises(OSError) as raised, (tmp_path / "big").open("wb") as handle:
             handle.write(b"x" * 10_000)
@@ -146,7 +146,14 @@ def test_a_file_past_the_size_limit_names_ulimit_f(tmp_path: Path) -> None:
         limit = limit_reached(raised.value)
     finally:
         resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
-    assert raised.value.errno == errno.EFBIG
+    return raised.value, limit, soft
+
+
+def test_a_file_past_the_size_limit_names_ulimit_f(tmp_path: Path) -> None:
+    """A real ``EFBIG`` under ``ulimit -f``: the limit and its value, in ``ulimit``'s blocks;
+    without a limit (the file system's own largest file) none is named."""
+    raised, limit, soft = _past_the_size_limit(tmp_path, 4096)
+    assert raised.errno == errno.EFBIG
     assert limit is not None
     assert limit.detail == "this process may write files of 4,096 bytes at most: ulimit -f 4"
     if soft == resource.RLIM_INFINITY:
@@ -158,15 +165,7 @@ def test_a_size_limit_not_of_whole_blocks_is_not_written_as_ulimit_f_rounded_dow
 ) -> None:
     """``prlimit --fsize=1000``: bash's ``ulimit -f`` counts blocks of 1,024 bytes, and the
     line read "1,000 bytes at most: ulimit -f 0", a limit that allows no write at all."""
-    soft, hard = resource.getrlimit(resource.RLIMIT_FSIZE)
-    resource.setrlimit(resource.RLIMIT_FSIZE, (1000, hard))
-    try:
-        with pytest.raises(OSError) as raised, (tmp_path / "big").open("wb") as handle:
-            handle.write(b"x" * 10_000)
-            handle.flush()
-        limit = limit_reached(raised.value)
-    finally:
-        resource.setrlimit(resource.RLIMIT_FSIZE, (soft, hard))
+    _, limit, _ = _past_the_size_limit(tmp_path, 1000)
     assert limit is not None
     assert limit.detail == (
         "this process may write files of 1,000 bytes at most (not a whole number of "
