@@ -9,8 +9,9 @@ its topics, topic reader, header stamps, ``inspect`` counts, message leaves and 
 ``io/align.py`` its grid, resampling, output gaps, notes, true modes and ``--split-gaps``
 pieces, ``outputs.py`` (now a package re-exporting its public names) its paths, overlaps,
 temporaries, records, target checks, staging and publishing, ``jobs/batch.py`` its outcomes,
-folder names, job, task of a log, batch folder, plan and summaries to modules of their own:
-after the splits,
+folder names, job, task of a log, batch folder, plan and summaries, ``model/loader.py`` its
+file keys, log fields, mode equations and mode switching to modules of their own: after the
+splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -100,6 +101,10 @@ SPLITS = {
             "batch_plan",
             "batch_summaries",
         )
+    ),
+    "hybridlog.model.loader": tuple(
+        f"hybridlog.model.{name}"
+        for name in ("file_keys", "log_fields", "mode_equations", "mode_switching")
     ),
 }
 """Each split module and the modules that took part of it."""

@@ -24,7 +24,7 @@ UNKNOWN = "unknown"
 
 JOINT_SEPARATOR = "|"
 """What joins the components' mode ids into a joint mode's id (a component's mode id may not
-hold it, :mod:`hybridlog.model.loader`)."""
+hold it, :mod:`hybridlog.model.log_fields`)."""
 
 
 def joint_label(modes: Iterable[str]) -> str:

@@ -250,10 +250,10 @@ def test_no_estimator_option_is_named_like_a_top_level_key():
     # the loader (which cannot import the estimators) refuses every top-level key written in
     # an [estimators.<name>] table as misplaced: right only while no option is so named
     from hybridlog.estimators import ESTIMATORS
-    from hybridlog.model.loader import _TOP_KEYS
+    from hybridlog.model.file_keys import TOP_KEYS
 
     options = {i.name for e in ESTIMATORS.values() for i in e.describe_options()}
-    assert options and not options & _TOP_KEYS
+    assert options and not options & TOP_KEYS
 
 
 def test_a_required_key_found_in_a_parameter_table_is_named():

@@ -9,7 +9,8 @@ from hybridlog.io import SignalSpec, load_signals, write_table
 from hybridlog.io.mapping import DEFAULT_MODE_FIELD
 from hybridlog.io.table_times import TIME_COLUMNS
 from hybridlog.model.expressions import symbol_name_problem
-from hybridlog.model.loader import _LOG_FIELD_NAMES, _report_columns, parse_model
+from hybridlog.model.loader import parse_model
+from hybridlog.model.log_fields import _LOG_FIELD_NAMES, _report_columns
 from hybridlog.simulate import simulate
 from tests.support.models import LINEAR_TWO_MODE
 
