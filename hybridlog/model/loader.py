@@ -22,8 +22,6 @@ built-in and calls :func:`parse_model` only when the loaded-model cache has no v
 
 from __future__ import annotations
 
-import re
-import unicodedata
 from collections.abc import Iterator, Mapping
 from typing import Any
 
@@ -75,6 +73,7 @@ from hybridlog.model.mode_equations import (
     numeric_matrix,
 )
 from hybridlog.model.mode_switching import initial_modes, jump_maps, markov_transitions
+from hybridlog.model.reads import PROSE_KEYS, identifiers
 from hybridlog.model.scenario import COMPONENT_KEYS, load_scenario
 from hybridlog.model.schedule import parse_schedule
 from hybridlog.model.toml_text import read_toml, spelled
@@ -627,11 +626,6 @@ def _variances(matrix: FloatArray, key: str) -> FloatArray:
     return variances
 
 
-_FREE_TEXT_KEYS = {"name", "description", "reference"}
-"""Top-level keys whose strings are prose, not expressions."""
-_IDENTIFIER = re.compile(r"[^\W\d]\w*")
-
-
 def _refuse_unused_overrides(data: Mapping[str, Any], overrides: Mapping[str, float]) -> None:
     """Refuse ``--set`` of a parameter no string of the model names: it would change nothing.
 
@@ -643,8 +637,8 @@ def _refuse_unused_overrides(data: Mapping[str, Any], overrides: Mapping[str, fl
     if not overrides:
         return
     named: set[str] = set()
-    for value in _strings({k: v for k, v in data.items() if k not in _FREE_TEXT_KEYS}):
-        named.update(_IDENTIFIER.findall(unicodedata.normalize("NFKC", value)))
+    for value in _strings({k: v for k, v in data.items() if k not in PROSE_KEYS}):
+        named.update(identifiers(value))
     for name in overrides:
         if name not in named:
             raise ModelError(

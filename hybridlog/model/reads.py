@@ -38,10 +38,17 @@ if TYPE_CHECKING:
 
 __all__ = ["refuse_unread_by_analysis", "refuse_unread_by_simulation"]
 
-_PROSE_KEYS = frozenset({"name", "description", "reference"})
-"""Top-level keys whose strings are prose, not expressions (as the loader's)."""
+PROSE_KEYS = frozenset({"name", "description", "reference"})
+"""Top-level keys whose strings are prose, not expressions: no name in them is read as a symbol
+(the loader's :func:`~hybridlog.model.loader._refuse_unused_overrides` reads past them too)."""
 
 _IDENTIFIER = re.compile(r"[^\W\d]\w*")
+
+
+def identifiers(text: str) -> frozenset[str]:
+    """The names a string of a model file could read, as the loader reads them (NFKC)."""
+    return frozenset(_IDENTIFIER.findall(unicodedata.normalize("NFKC", text)))
+
 
 Path = tuple[str, ...]
 
@@ -109,7 +116,7 @@ def _leaves(value: Any, path: Path = ()) -> Iterator[tuple[Path, str]]:
         yield path, value
     elif isinstance(value, dict):
         for key, item in value.items():
-            if not (path == () and key in _PROSE_KEYS):
+            if not (path == () and key in PROSE_KEYS):
                 yield from _leaves(item, (*path, str(key)))
     elif isinstance(value, list):
         for i, item in enumerate(value):
@@ -118,10 +125,7 @@ def _leaves(value: Any, path: Path = ()) -> Iterator[tuple[Path, str]]:
 
 def _named_by(model: HybridModel) -> list[tuple[Path, frozenset[str]]]:
     """Each string's key path and the identifiers it names (as the parser reads names)."""
-    return [
-        (path, frozenset(_IDENTIFIER.findall(unicodedata.normalize("NFKC", text))))
-        for path, text in _leaves(read_toml(model.source))
-    ]
+    return [(path, identifiers(text)) for path, text in _leaves(read_toml(model.source))]
 
 
 @dataclass(frozen=True)
