@@ -71,7 +71,7 @@ from hybridlog.report.reading_notes import (
     unused_sample_notes,
 )
 from hybridlog.report.summary import markdown_table
-from hybridlog.signals import NO_TRUE_MODE, AlignedSignals
+from hybridlog.signals import NO_TRUE_MODE, AlignedSignals, FloatArray
 
 __all__ = [
     "PLOT_SUFFIXES",
@@ -236,7 +236,8 @@ def _rows(classifier: ModeClassifier, model: HybridModel) -> list[list[object]]:
     rows: list[list[object]] = []
     ratios = classifier.details.get("potential_ratios")
     sizes = classifier.details.get("sizes")
-    for c, centre in enumerate(classifier.centers):
+    texts = _centre_texts(classifier.centers)
+    for c in range(len(classifier.centers)):
         mode = (
             "-" if classifier.cluster_modes is None else model.mode_ids[classifier.cluster_modes[c]]
         )
@@ -247,10 +248,29 @@ def _rows(classifier: ModeClassifier, model: HybridModel) -> list[list[object]]:
                 mode,
                 None if sizes is None else int(sizes[c]),
                 None if ratios is None else float(ratios[c]),
-                ", ".join(f"{v:.4g}" for v in centre),
+                ", ".join(texts[c]),
             ]
         )
     return rows
+
+
+def _centre_texts(centers: FloatArray) -> list[list[str]]:
+    """Each centre's components to 4 significant digits, more where a column needs them.
+
+    Centres of a log near 1e12 (a position in micrometres from an origin far away) printed
+    ``1e+12, 1e+12, 0.7454`` and ``1e+12, 1e+12, -0.762``: different centres, alike in
+    every output.  A column whose distinct values print alike gets the digits that tell
+    them apart (up to the 17 of a float), as the gates' messages do.
+    """
+    columns = []
+    for column in np.asarray(centers, dtype=np.float64).T:
+        distinct = len(set(column.tolist()))
+        for digits in range(4, 18):
+            shown = [f"{v:.{digits}g}" for v in column]
+            if len(set(shown)) == distinct:
+                break
+        columns.append(shown)
+    return [list(row) for row in zip(*columns, strict=True)] if columns else []
 
 
 def _model_defaults(
