@@ -62,14 +62,16 @@ from hybridlog.outputs import (
     check_file_name,
     check_file_target,
 )
+from hybridlog.report.build import FEW_SAMPLES
 from hybridlog.report.coverage import samples_coverage
+from hybridlog.report.markdown import WARNING_PREFIX, plural
 from hybridlog.report.reading_notes import (
     bridged_cause,
     log_reading_notes,
     unused_sample_notes,
 )
 from hybridlog.report.summary import markdown_table
-from hybridlog.signals import NO_TRUE_MODE, AlignedSignals
+from hybridlog.signals import NO_TRUE_MODE, AlignedSignals, FloatArray
 
 __all__ = [
     "PLOT_SUFFIXES",
@@ -191,6 +193,29 @@ def _accuracy_words(accuracy: dict[str, float | None], over: str | None) -> str 
     )
 
 
+def few_vectors_warning(vectors: int, scored: int | None) -> str | None:
+    """The warning that the centres or their accuracy rest on fewer than 30 samples, or ``None``.
+
+    ``vectors``: the regression vectors the centres were fitted on; ``scored``: the samples
+    the mode accuracy of the decision rule is over (``None``: no accuracy).  ``analyze``
+    warns of metrics over fewer than :data:`~hybridlog.report.build.FEW_SAMPLES` samples;
+    ``cluster`` fitted centres on 2 vectors of a 3-row log and printed their accuracy,
+    0.3333 over those 3 samples, without a word, and wrote them for ``analyze`` to use.
+    """
+    parts = []
+    if vectors < FEW_SAMPLES:
+        parts.append(f"centres fitted on {plural(vectors, 'regression vector')}")
+    if scored is not None and scored < FEW_SAMPLES:
+        parts.append(f"mode accuracy of the decision rule over {plural(scored, 'sample')}")
+    if not parts:
+        return None
+    return (
+        f"{WARNING_PREFIX}{'; '.join(parts)}: fewer than {FEW_SAMPLES}, they describe these "
+        "samples, not the plant's modes; fit the clusters on a "
+        f"log that gives at least {FEW_SAMPLES} regression vectors"
+    )
+
+
 def _entry(classifier: ModeClassifier, model: HybridModel) -> dict[str, Any]:
     modes = (
         None
@@ -211,7 +236,8 @@ def _rows(classifier: ModeClassifier, model: HybridModel) -> list[list[object]]:
     rows: list[list[object]] = []
     ratios = classifier.details.get("potential_ratios")
     sizes = classifier.details.get("sizes")
-    for c, centre in enumerate(classifier.centers):
+    texts = _centre_texts(classifier.centers)
+    for c in range(len(classifier.centers)):
         mode = (
             "-" if classifier.cluster_modes is None else model.mode_ids[classifier.cluster_modes[c]]
         )
@@ -222,10 +248,29 @@ def _rows(classifier: ModeClassifier, model: HybridModel) -> list[list[object]]:
                 mode,
                 None if sizes is None else int(sizes[c]),
                 None if ratios is None else float(ratios[c]),
-                ", ".join(f"{v:.4g}" for v in centre),
+                ", ".join(texts[c]),
             ]
         )
     return rows
+
+
+def _centre_texts(centers: FloatArray) -> list[list[str]]:
+    """Each centre's components to 4 significant digits, more where a column needs them.
+
+    Centres of a log near 1e12 (a position in micrometres from an origin far away) printed
+    ``1e+12, 1e+12, 0.7454`` and ``1e+12, 1e+12, -0.762``: different centres, alike in
+    every output.  A column whose distinct values print alike gets the digits that tell
+    them apart (up to the 17 of a float), as the gates' messages do.
+    """
+    columns = []
+    for column in np.asarray(centers, dtype=np.float64).T:
+        distinct = len(set(column.tolist()))
+        for digits in range(4, 18):
+            shown = [f"{v:.{digits}g}" for v in column]
+            if len(set(shown)) == distinct:
+                break
+        columns.append(shown)
+    return [list(row) for row in zip(*columns, strict=True)] if columns else []
 
 
 def _model_defaults(
@@ -557,6 +602,9 @@ def discover_modes(
     # a true mode that starts late: the accuracy is of the samples from its first on, said as
     # report.md and the batch summaries say it
     over = samples_coverage(_scored(signals), signals.time.size, reading)
+    fitted_on = measured_rows(signals.unmeasured_outputs, fitted.spec, signals.n_samples)
+    scored = _scored(signals) if any(v is not None for v in accuracy.values()) else None
+    few = few_vectors_warning(int(np.count_nonzero(fitted_on)), scored)
     content: dict[str, Any] = {
         "model": model.name,
         "model_key": model_key(model),
@@ -591,6 +639,10 @@ def discover_modes(
             },
             **_entry(baseline, model),
         }
+    if few is not None:  # in the file too: the centres analyze would decide by
+        for name in ("chiu", "kmeans"):
+            if name in content:
+                content[name]["notes"].append(few)
     content["reading"] = reading
     phi = regression_vectors(signals.outputs, signals.inputs, fitted.spec)
     lag = fitted.spec.max_lag
@@ -635,6 +687,8 @@ def discover_modes(
         rows,
     )
     alerts, read_notes = reading_said(reading, _left_out(signals, fitted.spec))
+    if few is not None:
+        alerts.append(f"warning: {few.removeprefix(WARNING_PREFIX)}")
     notes += [*fitted.notes, *fitted.labelling, *read_notes]
     if baseline is not None:
         compared = [*baseline.notes, *baseline.labelling]

@@ -1,0 +1,48 @@
+"""``hybridlog cluster`` on a log too short to fit centres or score them on."""
+
+import json
+from pathlib import Path
+
+import polars as pl
+import pytest
+
+from hybridlog.jobs.cluster import discover_modes
+from tests.support.paths import SAMPLE_LOGS
+
+
+def _head(tmp_path: Path, rows: int) -> Path:
+    path = tmp_path / f"head{rows}.csv"
+    pl.read_csv(SAMPLE_LOGS / "double_cart_case1.csv").head(rows).write_csv(path)
+    return path
+
+
+@pytest.mark.parametrize("rows", [3, 40])
+def test_centres_fitted_on_a_few_samples_are_a_warning(tmp_path, rows):
+    """A 3-row log gave 2 centres from 2 regression vectors and "mode accuracy of the
+    decision rule on this log 0.3333" (over 3 samples), without the warning analyze gives
+    of metrics over fewer than 30 samples; the centres file, which analyze decides by,
+    held nothing of it.  Now on stderr and in the file's notes; nothing at 40 rows."""
+    out = tmp_path / "c.json"
+    outcome = discover_modes(_head(tmp_path, rows), "double_cart_case1", out=out)
+    notes = json.loads(out.read_text())["chiu"]["notes"]
+    warned = [a for a in outcome.alerts if "fewer than 30" in a]
+    if rows == 40:
+        assert not warned and not any("fewer than 30" in n for n in notes)
+        return
+    assert warned == [
+        "warning: centres fitted on 2 regression vectors; mode accuracy of the decision rule "
+        "over 3 samples: fewer than 30, they describe these samples, not the plant's modes; "
+        "fit the clusters on a log that gives at least 30 regression vectors"
+    ]
+    assert notes[-1] == f"WARNING: {warned[0].removeprefix('warning: ')}"
+
+
+def test_each_part_is_said_alone():
+    """Enough vectors but a true mode over few samples, and the reverse; no accuracy."""
+    from hybridlog.jobs.cluster import few_vectors_warning
+
+    assert few_vectors_warning(30, 29) is not None
+    assert "regression vector" not in (few_vectors_warning(30, 29) or "")[:40]
+    assert "centres fitted on 1 regression vector;" not in (few_vectors_warning(1, None) or "")
+    assert "centres fitted on 1 regression vector:" in (few_vectors_warning(1, None) or "")
+    assert few_vectors_warning(30, None) is None and few_vectors_warning(30, 30) is None
