@@ -39,7 +39,9 @@ The keys the estimators need are validated on reading, against each other too (l
 ``mode_ids``, centres inside ``scaling``: where a fitted file puts them, ``output_lags`` and
 ``input_lags`` those the ``regressors`` name, ``decision_values`` the centres' ``y(k)``
 components); errors name the file and key.  The rest (``labelling``, ``potentials``,
-``notes`` ...) records how the centres were fitted and is not read back.  A key
+``notes`` ...) records how the centres were fitted and is not read back, but for the notes
+that warn (centres fitted on fewer than 30 regression vectors), which an ``analyze`` by them
+repeats.  A key
 ``hybridlog cluster`` does not write is refused, naming the keys it does: a misspelt
 ``"moeds"`` left the clusters unlabelled, and the estimator labelled them from the log
 instead of by the file's hand-written labels, without a word.
@@ -126,6 +128,10 @@ class StoredClusters:
     parameters: Mapping[str, Any] = field(default_factory=dict)
     decision_values: FloatArray | None = None
     """The ``y(k)`` components of the centres as the file records them (``None``: not)."""
+    warnings: tuple[str, ...] = ()
+    """The file's notes that warn (``WARNING: ...``), as ``hybridlog cluster`` wrote them:
+    centres fitted on fewer than 30 regression vectors describe those samples, not the
+    plant's modes, and an ``analyze`` deciding by them says so (:func:`_warnings`)."""
 
 
 @dataclass(frozen=True)
@@ -331,7 +337,11 @@ def parse_centers(text: str, source: str) -> CentersFile:
             else reader.matrix(table, f"{name}.decision_values", None, rows=len(centers))
         )
         clusters[name] = StoredClusters(
-            centers=centers, modes=modes, parameters=parameters, decision_values=decision
+            centers=centers,
+            modes=modes,
+            parameters=parameters,
+            decision_values=decision,
+            warnings=_warnings(table.get("notes")),
         )
     if not clusters:
         raise reader.error("chiu", "the file holds no centres (neither 'chiu' nor 'kmeans')")
@@ -486,6 +496,23 @@ class _Reader:
         if not np.all(np.isfinite(array)):
             raise self.error(key, "non-finite number (or one past a float's range, 1.8e308)")
         return array
+
+
+def _warnings(notes: Any) -> tuple[str, ...]:
+    """The notes of a file's ``notes`` list that warn, without their ``WARNING: ``.
+
+    The other notes describe the log the centres were fitted on and are not read back; a
+    warning is about the centres themselves (fitted on 2 regression vectors of a 3-row log),
+    and ``analyze --set centers=FILE`` said only "2 centres loaded from FILE".
+    """
+    if not isinstance(notes, list):
+        return ()
+    prefix = "WARNING: "
+    return tuple(
+        note.removeprefix(prefix)
+        for note in notes
+        if isinstance(note, str) and note.startswith(prefix)
+    )
 
 
 def _float(value: float) -> float:

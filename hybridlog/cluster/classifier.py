@@ -303,7 +303,10 @@ def stored_classifier(
     lags = {"output_lags": spec.output_lags, "input_lags": spec.input_lags}
     entry = stored.entry(algorithm, names, lags, mode_ids, source)
     named = as_text(source)  # a name that is not UTF-8: no report could hold its note
-    notes = (f"{algorithm}: {_count(len(entry.centers), 'centre')} loaded from {named}",)
+    notes = (
+        f"{algorithm}: {_count(len(entry.centers), 'centre')} loaded from {named}",
+        *(f"WARNING: {named} says: {warning}" for warning in entry.warnings),
+    )
     classifier = _unlabelled(
         algorithm, spec, names, entry.centers, stored.lower, stored.upper, notes, {}, outputs
     )

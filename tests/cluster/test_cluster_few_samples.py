@@ -46,3 +46,26 @@ def test_each_part_is_said_alone():
     assert "centres fitted on 1 regression vector;" not in (few_vectors_warning(1, None) or "")
     assert "centres fitted on 1 regression vector:" in (few_vectors_warning(1, None) or "")
     assert few_vectors_warning(30, None) is None and few_vectors_warning(30, 30) is None
+
+
+def test_analyze_by_such_centres_repeats_the_warning(tmp_path):
+    """``analyze --set centers=FILE`` said only "2 centres loaded from FILE": the file's
+    warning that they rest on 2 regression vectors was in its notes, never read back."""
+    from hybridlog.jobs.analysis import analyze
+
+    centres = tmp_path / "c.json"
+    discover_modes(_head(tmp_path, 3), "double_cart_case1", out=centres)
+    log = SAMPLE_LOGS / "double_cart_case1.csv"
+    report = analyze(
+        log,
+        "double_cart_case1",
+        estimator="chiu",
+        sets=[f"centers={centres}"],
+        out_dir=tmp_path / "r",
+    ).report
+    (said,) = [n for n in report.notes if "says:" in n]
+    assert said == (
+        f"WARNING: {centres} says: centres fitted on 2 regression vectors; mode accuracy of "
+        "the decision rule over 3 samples: fewer than 30, they describe these samples, not "
+        "the plant's modes; fit the clusters on a log that gives at least 30 regression vectors"
+    )
