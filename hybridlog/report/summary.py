@@ -857,7 +857,11 @@ def batch_markdown(
         )
         if n
     )
-    verdict = "all passed" if len(passed) == len(rows) else f"{len(rows) - len(passed)} not passed"
+    # "all passed" of a batch without gates read as gates checked and met (summary.png
+    # said "no gate given"): without a gate result, a log is analysed or not
+    gated_rows = any(row.gates for row in rows)
+    word = "passed" if gated_rows else "analysed"
+    verdict = f"all {word}" if len(passed) == len(rows) else f"{len(rows) - len(passed)} not {word}"
     filtered = ("filtered_mode_accuracy",) if offline is not None else ()
     extra = gated_columns(gated, (*BATCH_METRICS, *filtered))
     header = ("log", "status", "gates", *BATCH_METRICS, *filtered, *extra, "report")
@@ -883,6 +887,8 @@ def batch_markdown(
     ]
     if gates:
         lines += ["", "Gates: " + ", ".join(f"`{gate}`" for gate in gates) + "."]
+    elif not gated_rows and len(failed) < len(rows):
+        lines += ["", "No gate given."]
     lines += ["", table]
     if failed:
         lines += ["", f"## Failed logs ({len(failed)} of {len(rows)})", ""]

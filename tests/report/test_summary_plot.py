@@ -101,6 +101,21 @@ def test_a_batch_of_one_log_is_counted_in_the_singular():
     assert "**3 logs: 2 not passed**" in batch_markdown("m", rows(), [])[1]
 
 
+def test_a_batch_without_gates_is_not_said_to_have_passed_them():
+    """summary.md said "**1 log: all passed**" of a batch given no gate, where summary.png
+    said "no gate given": read in a CI job summary, gates checked and met."""
+    from hybridlog.report.summary import batch_markdown
+
+    ungated = [replace(row, gates=()) for row in rows()]
+    text = batch_markdown("m", ungated[:2], [])[1]
+    assert "**2 logs: all analysed** (2 analysed).\n\nNo gate given." in text
+    assert "passed" not in text
+    assert (
+        "**3 logs: 1 not analysed** (2 analysed, 1 failed)." in batch_markdown("m", ungated, [])[1]
+    )
+    assert "No gate given" not in batch_markdown("m", ungated[2:], [])[1]  # none analysed
+
+
 def test_close_values_are_ticked_as_themselves_not_as_an_offset():
     """VAFs 99.9929 and 99.9936 were ticked 0.0000 to 0.0006 under "+9.9993e1"."""
     report = read_report(REPORT)
