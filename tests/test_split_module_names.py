@@ -10,8 +10,8 @@ its topics, topic reader, header stamps, ``inspect`` counts, message leaves and 
 pieces, ``outputs.py`` (now a package re-exporting its public names) its paths, overlaps,
 temporaries, records, target checks, staging and publishing, ``jobs/batch.py`` its outcomes,
 folder names, job, task of a log, batch folder, plan and summaries, ``model/loader.py`` its
-file keys, log fields, mode equations and mode switching to modules of their own: after the
-splits,
+file keys, log fields, mode equations and mode switching, ``report/document.py`` its JSON
+values, the report's parts and its reader to modules of their own: after the splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -105,6 +105,9 @@ SPLITS = {
     "hybridlog.model.loader": tuple(
         f"hybridlog.model.{name}"
         for name in ("file_keys", "log_fields", "mode_equations", "mode_switching")
+    ),
+    "hybridlog.report.document": tuple(
+        f"hybridlog.report.{name}" for name in ("report_json", "report_parts", "report_reader")
     ),
 }
 """Each split module and the modules that took part of it."""

@@ -21,18 +21,7 @@ from hybridlog.estimators.consistency import ConsistencyAccumulator
 from hybridlog.estimators.explained import explained_outputs
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.report import metrics, mode_metrics
-from hybridlog.report.document import (
-    ComponentSide,
-    Detection,
-    JsonObject,
-    ModeReport,
-    ModeSwitch,
-    OutputReport,
-    Report,
-    Smoothing,
-    SmoothingMetrics,
-    StateReport,
-)
+from hybridlog.report.document import Report
 from hybridlog.report.markdown import (
     NO_TRUE_MODE_REASON,
     NO_TRUE_STATE_REASON,
@@ -41,6 +30,17 @@ from hybridlog.report.markdown import (
 )
 from hybridlog.report.plot_data import COMPONENT_PREFIX
 from hybridlog.report.reading_notes import report_reading_notes
+from hybridlog.report.report_json import JsonObject
+from hybridlog.report.report_parts import (
+    ComponentSide,
+    Detection,
+    ModeReport,
+    ModeSwitch,
+    OutputReport,
+    Smoothing,
+    SmoothingMetrics,
+    StateReport,
+)
 from hybridlog.signals import (
     NO_TRUE_MODE,
     AlignedSignals,

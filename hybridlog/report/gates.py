@@ -63,14 +63,9 @@ from typing import Final, Literal
 from hybridlog.errors import OptionError
 from hybridlog.numbers import parse_float
 from hybridlog.report.coverage import component_coverage, mode_coverage
-from hybridlog.report.document import (
-    JsonValue,
-    ModeReport,
-    OutputReport,
-    Report,
-    Smoothing,
-    StateReport,
-)
+from hybridlog.report.document import Report
+from hybridlog.report.report_json import JsonValue
+from hybridlog.report.report_parts import ModeReport, OutputReport, Smoothing, StateReport
 
 __all__ = [
     "FALLBACK_METRICS",

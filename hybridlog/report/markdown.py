@@ -17,7 +17,8 @@ from hybridlog.report.gates import met_value
 from hybridlog.times import format_time
 
 if TYPE_CHECKING:
-    from hybridlog.report.document import ModeReport, Report, Smoothing
+    from hybridlog.report.document import Report
+    from hybridlog.report.report_parts import ModeReport, Smoothing
 
 __all__ = [
     "DEFINITIONS",

@@ -46,7 +46,8 @@ from hybridlog.report.markdown import (
 
 if TYPE_CHECKING:
     from hybridlog.estimators.result import Fallbacks
-    from hybridlog.report.document import Report, Smoothing, SmoothingMetrics
+    from hybridlog.report.document import Report
+    from hybridlog.report.report_parts import Smoothing, SmoothingMetrics
 
 __all__ = [
     "FALLBACK_COLUMNS",

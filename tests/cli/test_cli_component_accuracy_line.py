@@ -9,7 +9,8 @@ report.md scored each component that has one.
 from dataclasses import replace
 
 from hybridlog.cli_lines import summary_line
-from hybridlog.report.document import ModeReport, read_report
+from hybridlog.report.document import read_report
+from hybridlog.report.report_parts import ModeReport
 from tests.report.test_summary_plot import REPORT
 
 

@@ -157,7 +157,7 @@ def test_a_state_without_samples_is_said_in_words(tmp_path: Path) -> None:
 def test_offline_states_are_said_as_the_offline_modes_are() -> None:
     """A smoothed estimator's states' RMSEs beside a filter's were not said to be offline;
     a Viterbi path alone keeps the filter's states, and says so by saying nothing of them."""
-    from hybridlog.report.document import Smoothing
+    from hybridlog.report.report_parts import Smoothing
     from tests.report.test_report_gates import _side
 
     imm = read_report(
@@ -183,7 +183,7 @@ def test_a_smoothed_estimators_na_filtered_state_gives_its_reason() -> None:
     """comparison.md's "Not available" named the reason of an n/a ``filtered_mode_accuracy``
     cell of a smoothed estimator but not of an n/a ``filtered_state_rmse.<x>`` beside it."""
     from hybridlog.report.comparison import unavailable_section
-    from hybridlog.report.document import Smoothing, StateReport
+    from hybridlog.report.report_parts import Smoothing, StateReport
     from tests.report.test_report_gates import _side
 
     imm = read_report(

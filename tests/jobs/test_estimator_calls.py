@@ -24,7 +24,13 @@ from hybridlog.cli_process import SHARED_IMPORTS
 from hybridlog.jobs.analysis import analyze
 from tests.support.paths import TANK_CSV
 
-NOT_IN_THE_WORKER = ("hybridlog.jobs.analysis", "hybridlog.io.load", "hybridlog.report.document")
+NOT_IN_THE_WORKER = (
+    "hybridlog.jobs.analysis",
+    "hybridlog.io.load",
+    "hybridlog.report.document",
+    "hybridlog.report.report_parts",
+    "hybridlog.report.report_reader",
+)
 """Modules of the job the estimators' worker never runs."""
 
 READER = """

@@ -19,7 +19,6 @@ import pytest
 from hybridlog.errors import OptionError
 from hybridlog.estimators.result import Fallbacks
 from hybridlog.jobs.analysis import analyze, compare, gates_for, parse_sets, prepare_estimators
-from hybridlog.report.document import Smoothing
 from hybridlog.report.gates import (
     METRICS,
     GateKind,
@@ -29,6 +28,7 @@ from hybridlog.report.gates import (
     parse_gate,
     parse_gates,
 )
+from hybridlog.report.report_parts import Smoothing
 from tests.cli.test_cli import run
 from tests.report.test_report_gates import _side, report
 from tests.support.paths import SAMPLE_LOGS, TANK_CSV

@@ -11,8 +11,8 @@ from dataclasses import replace
 import pytest
 
 from hybridlog.cli_lines import summary_line
-from hybridlog.report.document import OutputReport
 from hybridlog.report.markdown import format_percent, render_markdown
+from hybridlog.report.report_parts import OutputReport
 from tests.report.test_report_gates import report
 
 

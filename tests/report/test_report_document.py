@@ -25,8 +25,9 @@ from hybridlog.errors import ReportError
 from hybridlog.estimators.result import EstimationResult, Fallbacks
 from hybridlog.report import Report, build_report, read_report, render_markdown
 from hybridlog.report import build as build_module
-from hybridlog.report.document import Smoothing, indented_json
 from hybridlog.report.gates import METRICS, evaluate_gates, metric, parse_gates
+from hybridlog.report.report_json import indented_json
+from hybridlog.report.report_parts import Smoothing
 from hybridlog.signals import AlignedSignals
 from tests.report.test_report_files import DT, make_run
 from tests.report.test_report_gates import _side

@@ -7,16 +7,7 @@ from dataclasses import replace
 import pytest
 
 from hybridlog.errors import OptionError
-from hybridlog.report.document import (
-    Detection,
-    ModeReport,
-    OutputReport,
-    Report,
-    Smoothing,
-    SmoothingMetrics,
-    StateReport,
-    SwitchDetection,
-)
+from hybridlog.report.document import Report
 from hybridlog.report.gates import (
     Gate,
     GateKind,
@@ -24,6 +15,15 @@ from hybridlog.report.gates import (
     parse_gate,
     parse_gates,
     validate_gates,
+)
+from hybridlog.report.mode_metrics import SwitchDetection
+from hybridlog.report.report_parts import (
+    Detection,
+    ModeReport,
+    OutputReport,
+    Smoothing,
+    SmoothingMetrics,
+    StateReport,
 )
 
 

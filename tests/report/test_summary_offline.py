@@ -16,9 +16,10 @@ import pytest
 from matplotlib.collections import LineCollection, PathCollection
 from matplotlib.colors import to_hex
 
-from hybridlog.report.document import Smoothing, StateReport, read_report
+from hybridlog.report.document import read_report
 from hybridlog.report.junit import write_junit
 from hybridlog.report.markdown import render_markdown
+from hybridlog.report.report_parts import Smoothing, StateReport
 from hybridlog.report.summary import (
     MAX_NAMED,
     BatchRow,

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 from matplotlib.colors import to_hex
 
-from hybridlog.report.document import Smoothing, read_report
+from hybridlog.report.document import read_report
+from hybridlog.report.report_parts import Smoothing
 from hybridlog.report.summary import BatchRow
 from hybridlog.report.summary_plot import summary_figure, write_summary_plot
 from tests.report.test_report_gates import _side
