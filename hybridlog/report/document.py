@@ -20,28 +20,27 @@ and ``batch`` write are :data:`PARAMETERS_KEY` and :data:`ORIGINS_KEY`
 :class:`Report` holding its value, so a further key named like a method of it (``to_dict``)
 or starting with ``__`` is refused (:func:`hidden_keys`).
 
-``smoothing`` is ``{method, mode_sequence, description, fallbacks, filtered: {...},
-smoothed: {...}}`` (:class:`Smoothing`): ``method`` names the fixed-interval smoother
-(``null`` when only the mode sequence was changed), ``mode_sequence`` is ``argmax``,
-``viterbi`` or ``kbest``; ``fallbacks`` (only when a smoother ran) is ``{samples, of,
-by_cause: {prediction, guard, rounding, covariance}, weight}``: of the ``of`` samples the
-backward pass smoothed (all but the last), the ``samples`` where at least one step that
-carries weight was refused and the forward estimate stood in its place, ``weight`` the share
-of the smoothed estimates those refused steps carry, averaged over the ``of`` samples
-(:class:`~hybridlog.estimators.result.Fallbacks`), and per cause (the
-prediction's covariance not positive definite, the guard, the rounding probe, the step's
-covariance not PSD; docs/smoothing.md "The algorithms") the samples with such a step (with
-``kbest``, those of the RTS smoother along the path, whose states the report holds); ``filtered``
-and ``smoothed`` hold the same metrics (:class:`SmoothingMetrics`) of the causal filter's
-estimates and of the report's own: ``mode_accuracy, confusion, detection_delay_s,
-detection_max_s, detected, missed, estimated_switches, states: {<x>: {rmse, samples}},
-outputs: {<y>: {mse, vaf, fit, samples}}, fit``, and for a ``[components]`` model with the
-log's true mode of components ``components: {<c>: {mode_accuracy, detection_delay_s,
-detection_max_s, detected, missed}}`` (:class:`ComponentSide`; absent otherwise).  Their
-``outputs`` are not the one-step-ahead prediction of the top-level ``outputs`` (which stays
-the filter's either way): they are
-``ŷ(k) = h_q̂(k)(x̂(k), u(k))``, the outputs the estimated mode and state explain, ``null``
-when the model was not at hand to evaluate ``h``.
+``smoothing`` is ``{method, mode_sequence, description, fallbacks, filtered: {...}, smoothed:
+{...}}`` (:class:`~hybridlog.report.report_parts.Smoothing`): ``method`` names the
+fixed-interval smoother (``null`` when only the mode sequence was changed), ``mode_sequence``
+is ``argmax``, ``viterbi`` or ``kbest``; ``fallbacks`` (only when a smoother ran) is
+``{samples, of, by_cause: {prediction, guard, rounding, covariance}, weight}``: of the ``of``
+samples the backward pass smoothed (all but the last), the ``samples`` where at least one step
+that carries weight was refused and the forward estimate stood in its place, ``weight`` the
+share of the smoothed estimates those refused steps carry, averaged over the ``of`` samples
+(:class:`~hybridlog.estimators.result.Fallbacks`), and per cause (the prediction's covariance
+not positive definite, the guard, the rounding probe, the step's covariance not PSD;
+docs/smoothing.md "The algorithms") the samples with such a step (with ``kbest``, those of the
+RTS smoother along the path, whose states the report holds); ``filtered`` and ``smoothed`` hold
+the same metrics (:class:`~hybridlog.report.report_parts.SmoothingMetrics`) of the causal
+filter's estimates and of the report's own: ``mode_accuracy, confusion, detection_delay_s,
+detection_max_s, detected, missed, estimated_switches, states: {<x>: {rmse, samples}}, outputs:
+{<y>: {mse, vaf, fit, samples}}, fit``, and for a ``[components]`` model with the log's true
+mode of components ``components: {<c>: {mode_accuracy, detection_delay_s, detection_max_s,
+detected, missed}}`` (:class:`~hybridlog.report.report_parts.ComponentSide`; absent otherwise).
+Their ``outputs`` are not the one-step-ahead prediction of the top-level ``outputs`` (which
+stays the filter's either way): they are ``ŷ(k) = h_q̂(k)(x̂(k), u(k))``, the outputs the
+estimated mode and state explain, ``null`` when the model was not at hand to evaluate ``h``.
 
 Everything that needs ground truth is ``null`` when the log has none, and every number that
 is not finite is ``null``, so the JSON is strict.  ``outputs.<y>.samples`` counts the rows the

@@ -35,7 +35,8 @@ class OutputReport:
     ----------
     mse, vaf, fit:
         See :func:`hybridlog.report.metrics.output_metrics`; ``None`` where undefined or
-        beyond float64's range (the report's :attr:`~Report.null_reasons` says why).
+        beyond float64's range (the report's
+        :attr:`~hybridlog.report.document.Report.null_reasons` says why).
     samples:
         Rows the metrics use (a finite measurement and prediction); ``None`` in reports of
         versions that did not record it.
@@ -61,7 +62,7 @@ class StateReport:
     rmse:
         Root mean square error over ``samples`` rows; ``None`` where undefined (no truth, a
         diverged estimate, or an RMSE float64 cannot hold: the report's
-        :attr:`~Report.null_reasons` says why).
+        :attr:`~hybridlog.report.document.Report.null_reasons` says why).
     samples:
         Rows the RMSE is over: where the true state is finite and its estimate is not NaN
         (a log's true state may cover only part of the run); ``None`` in reports of versions
