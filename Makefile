@@ -44,7 +44,7 @@ lint: $(VENV)/.installed-test
 	$(BIN)/mypy
 
 test: lint bytecode
-	$(BIN)/python -m pytest -n auto
+	$(BIN)/python -m pytest -n auto --durations=15
 
 # Bytecode for the package's own modules: pip writes it for an installed copy, but this one is
 # editable, and with PYTHONDONTWRITEBYTECODE set (as on the machines it is measured on) every
