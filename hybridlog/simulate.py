@@ -433,12 +433,22 @@ def _check_guard_domain(
     code = int(guard(np.ascontiguousarray(x), np.ascontiguousarray(u)))
     if code > -2:
         return
-    mode = model.modes[-2 - code]
+    n_modes = len(model.modes)
+    infinite = code < -1 - n_modes  # -2 - n - i: a side of mode i's guard is infinite
+    mode = model.modes[-2 - n_modes - code if infinite else -2 - code]
+    where = f"{key_path('modes', mode.id)}.guard"
+    if infinite:
+        raise model.error(
+            where,
+            f"{excerpt(str(mode.guard))} has an infinite side at {point(model, x, u)}, "
+            f"t = {format_time(float(at))} s (a pole, a division by 0 or a log of 0 there, or "
+            "past float64): whether it holds cannot be told; nothing was written",
+        )
     read = {str(symbol) for symbol in mode.guard.free_symbols} if mode.guard is not None else set()
     states, inputs = bool(read & set(model.states)), bool(read & set(model.inputs))
     left = "the input" if inputs and not states else "the state or input" if inputs else "the state"
     raise model.error(
-        f"{key_path('modes', mode.id)}.guard",
+        where,
         f"{excerpt(str(mode.guard))} is undefined (a side is nan) at {point(model, x, u)}, "
         f"t = {format_time(float(at))} s ({left} left the domain of the guard there), "
         "and no other mode's guard holds: no mode can be chosen; nothing was written",

@@ -37,7 +37,7 @@ from hybridlog.cluster.progress import simulating
 from hybridlog.errors import ModelError, OptionError, arithmetic_reason, excerpt, first_few
 from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.component_structure import solve_explicitly
-from hybridlog.model.components import UNKNOWN, Equation, joint_label
+from hybridlog.model.components import UNKNOWN, Component, Equation, joint_label
 from hybridlog.signals import FloatArray
 from hybridlog.times import format_time
 
@@ -219,6 +219,12 @@ def simulate_components(
     overrides = _overrides(model, scenario, rows, at, labels)
     commands = np.zeros((rows, len(model.commands)))
     for j, name in enumerate(model.commands):
+        if name not in scenario.commands:  # the log would hold a 0 the file never gave
+            raise ModelError(
+                f"{origin}: simulation.commands.{name}: no value of the command to simulate "
+                f'with (the log holds one at every step); write {name} = "VALUE" '
+                '(or "VALUE, VALUE@STEP, ...") under [simulation.commands]'
+            )
         for value, start in _sorted(
             scenario.commands.get(name, ()), at, f"simulation.commands.{name}"
         ):
@@ -392,14 +398,33 @@ def _mode_labels(
     """Each component's scheduled mode per row (default: its most likely initial mode)."""
     labels: dict[str, list[str]] = {}
     for component in model.components:
-        initial = component.initial_mode_probabilities
-        default = max(component.mode_ids, key=lambda m: initial.get(m, 0.0))
-        entries = scenario.modes.get(component.name, ((default, 0),))
-        row = [default] * rows
+        entries = scenario.modes.get(component.name) or ((_default_mode(model, component), 0),)
+        row = [entries[0][0]] * rows
         for mode, start in _sorted(entries, at, f"simulation.modes.{component.name}"):
             row[min(start, rows) :] = [mode] * (rows - min(start, rows))
         labels[component.name] = row
     return labels
+
+
+def _default_mode(model: HybridModel, component: Component) -> str:
+    """The mode a component without a ``[simulation.modes]`` entry plays: its most likely.
+
+    Refused where ``initial`` names no single known mode more likely than every other mode
+    (``unknown`` included): a tie (the default, uniform) or ``unknown`` itself would have the
+    run pick a mode the file never chose, and the log call it the truth.
+    """
+    initial = component.initial_mode_probabilities
+    ranked = sorted(initial.items(), key=lambda item: -item[1])
+    best, p_best = ranked[0]
+    if best != UNKNOWN and (len(ranked) == 1 or ranked[1][1] < p_best):
+        return best
+    shown = ", ".join(f"{mode} {p:.6g}" for mode, p in ranked)
+    raise ModelError(
+        f"{_origin(model)}: simulation.modes.{component.name}: no mode to simulate component "
+        f"'{component.name}' in: its initial probabilities ({component.key}.initial: "
+        f"{shown}) name no single most likely known mode; write {component.name} = "
+        f'"MODE" (or "MODE, MODE@STEP, ...") under [simulation.modes]'
+    )
 
 
 def _overrides(

@@ -407,7 +407,10 @@ def _guard_function(model: HybridModel) -> list[str]:
     A guard that compares a NaN (``sqrt(x) > 0.5`` at ``x < 0``, outside its domain) does
     not hold, as its comparison is false in the reals; where no guard holds, ``-2 - i``
     names the first such mode ``i``, so that the error says which guard left the sample
-    without a mode (it said only that none held).
+    without a mode (it said only that none held).  A side that is infinite (``1/x > 0`` at
+    ``x = 0``, a pole, whose sign is that of the zero's; or past float64) decides nothing:
+    ``-2 - n - i`` (``n`` modes) stops the run there, naming mode ``i``'s guard (it held or
+    not by the sign of a zero).
     """
     names = _slot_names(model)
     printer = _printer()
@@ -432,6 +435,8 @@ def _guard_function(model: HybridModel) -> list[str]:
         lines.append(f"    if {lhs} != {lhs} or {rhs} != {rhs}:  # mode {mode.id!r}: NaN")
         lines.append("        if undecided < 0:")
         lines.append(f"            undecided = {index}")
+        lines.append(f"    elif math.isinf({lhs}) or math.isinf({rhs}):  # a pole, or past float64")
+        lines.append(f"        return {-2 - len(model.modes) - index}")
         lines.append(f"    elif {printer.doprint(test)}:  # mode {mode.id!r}")
         lines.append(f"        return {index}")
     lines.append("    return -1 if undecided < 0 else -2 - undecided")

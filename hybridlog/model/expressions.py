@@ -390,7 +390,15 @@ def parse_expression(
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as err:
-        raise ModelError(f"{key}: cannot parse {excerpt(text)}: {err.msg}") from err
+        # A TOML multi-line string keeps its line breaks, which end a Python expression
+        # outside parentheses: 'a*x\n + u' was only "unexpected indent".
+        broken = (
+            "; a line break ends an expression outside parentheses: wrap it in ( ), or end "
+            "each line with \\ in a TOML multi-line string"
+            if "\n" in text.strip()
+            else ""
+        )
+        raise ModelError(f"{key}: cannot parse {excerpt(text)}: {err.msg}{broken}") from err
     except ValueError as err:  # e.g. NUL bytes, on Python versions that raise it
         raise ModelError(f"{key}: cannot parse {excerpt(text)}: {_unquoted(err, 80)}") from err
     except (RecursionError, MemoryError) as err:

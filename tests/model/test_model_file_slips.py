@@ -50,11 +50,19 @@ MATRIX = "matrix = [[0.97, 0.03], [0.05, 0.95]]"
         ("Piecewise(x, x == 0, 0)", r"'==' is not a comparison of model .*; write <, <=, > or >="),
         ("x % 2", r"'%' \(remainder\) is not in the grammar of model expressions"),
         ("x // 2", r"'//' \(floor division\) is not in the grammar"),
+        # was only Python's "unexpected indent": a TOML multi-line string keeps its breaks
+        ("0.9*x\n + u", r"cannot parse .*: unexpected indent; a line break ends an expression"),
+        ("0.9*x +\n u", r"cannot parse .*: invalid syntax; .*wrap it in \( \)"),
     ],
 )
 def test_an_expression_written_as_elsewhere_says_what_to_write(text, said):
     with pytest.raises(ModelError, match=r"^modes\.a\.f\[0\]: " + said):
         parse_expression(text, X, key="modes.a.f[0]")
+
+
+def test_a_line_break_inside_parentheses_still_parses():
+    written = parse_expression("(0.9*x\n + u)", X, key="k")
+    assert written == parse_expression("0.9*x + u", X, key="k")
 
 
 def test_piecewise_and_comparisons_still_parse_where_they_belong():

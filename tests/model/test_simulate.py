@@ -517,3 +517,17 @@ def test_simulate_compiles_no_jacobian(tmp_path, builtin, old, new):
     key = compiled.model_key(model)
     names = {name for memo, name, jit in compiled._COMPILED if memo == key and jit}
     assert names == ({"f", "h", "guard"} if model.state_driven else {"f", "h"})
+
+
+def test_a_guard_at_its_pole_stops_the_run_rather_than_hold_by_the_sign_of_a_zero():
+    # '1/x > 0' at x = 0 compared inf > 0: the guard held (by the sign of the zero: at -0.0
+    # it would not), and the run went on in 'down' at a point where it is undefined
+    text = GUARDED.replace('guard = "x > 0"', 'guard = "1/x > 0"').replace(
+        "state = [0.5]", "state = [0.0]"
+    )
+    message = (
+        r"^guarded\.toml: modes\.down\.guard: '1/x > 0' has an infinite side at x = 0, "
+        r"t = 0 s \(a pole, .*\): whether it holds cannot be told; nothing was written$"
+    )
+    with pytest.raises(ModelError, match=message):
+        simulate(parse_model(text, origin="guarded.toml"), steps=4, noise=False)
