@@ -58,7 +58,8 @@ ModelFunction = Callable[[int, FloatArray, FloatArray, FloatArray], None]
 GuardFunction = Callable[[FloatArray, FloatArray], int]
 """``guard(x, u)``: index of the first mode whose guard holds; where none holds, -1, or
 ``-2 - i`` where the guard of mode ``i`` compared a NaN (outside its domain: ``sqrt(x) > 0.5``
-at ``x < 0``, which does not hold)."""
+at ``x < 0``, which does not hold); ``-2 - n - i`` (``n`` modes) where a side of mode ``i``'s
+guard is infinite (a pole, or past float64), which decides nothing."""
 InputFunction = Callable[[FloatArray, FloatArray], Any]
 """``input(t, k)``: one simulation input over the time grid (an array or a scalar)."""
 
