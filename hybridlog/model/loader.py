@@ -146,12 +146,14 @@ class _Builder:
         check_keys(data, TOP_KEYS, "")
         kind = model_kind(data)
         refuse_misplaced_top_keys(data)
-        timebase = _timebase(data)
-        if kind == "components" and timebase.is_continuous:
+        # before the time base, which asks a continuous-time model for its [integration]
+        # ("integration: required key is missing" said nothing of the components)
+        if kind == "components" and data.get("time") == "continuous":
             raise ModelError(
                 "time: a components model is discrete-time (paper 002 eq. (1)); "
                 "use time = 'discrete'"
             )
+        timebase = _timebase(data)
         states = as_names(required(data, "states", ""), "states")
         inputs = as_names(data.get("inputs", []), "inputs", allow_empty=True)
         outputs = as_names(required(data, "outputs", ""), "outputs")

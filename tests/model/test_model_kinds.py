@@ -596,6 +596,11 @@ _COMPONENT_ERRORS = [
         'dt = 1.0\ntime = "continuous"\nintegration = {step = 0.5}',
         r"time: a components model is discrete-time",
     ),
+    (  # without [integration], which a continuous-time model needs: it was named missing
+        "dt = 1.0",
+        'dt = 1.0\ntime = "continuous"',
+        r"time: a components model is discrete-time",
+    ),
     ("dt = 1.0", "dt = 1.0\n[modes.a]\nf = []", r"modes: not part of a components model"),
     (
         "measurement = [0.04, 0.05]",
