@@ -384,6 +384,12 @@ def load_scenario(
                 f"{', '.join(memory) or 'none'})"
             )
         update[name] = _expression(text, env, key)
+    for name in [name for name in memory if name not in update]:  # kept its first value, unsaid
+        raise ModelError(
+            f"{key_path('simulation.controller.states', name)}: the controller state has no "
+            f"update ({key_path('simulation.controller.update', name)}): it would keep "
+            f"{memory[name]:g} at every step; write its update, or make it a parameter"
+        )
     control: dict[str, sympy.Expr] = {}
     for name, text in as_table(
         controller.get("inputs", {}), "simulation.controller.inputs"

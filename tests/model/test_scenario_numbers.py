@@ -90,3 +90,17 @@ def test_mode_ids_of_other_digits_are_labels() -> None:
     assert as_mode_id("١.٥", "modes") == "١.٥"
     with pytest.raises(ModelError, match="reads it as '1'"):
         as_mode_id("1.0", "modes")
+
+
+def test_a_controller_state_without_an_update_is_refused(tmp_path: Path) -> None:
+    """``states = {m = 0.0}`` with no ``update.m`` kept 0 at every step without a word (found
+    by hostile59): a memory that never changes is a parameter, or a forgotten update."""
+    update = 'update = {integral = "min(max(integral + setpoint - yc3, -u_max/ki), u_max/ki)"}'
+    path = _variant(tmp_path, "bioplex_pgc", update, "")
+    with pytest.raises(ModelError) as caught:
+        load_model(path)
+    assert str(caught.value) == (
+        f"{path}: simulation.controller.states.integral: the controller state has no update "
+        "(simulation.controller.update.integral): it would keep 0 at every step; write its "
+        "update, or make it a parameter"
+    )
