@@ -7,6 +7,7 @@ line at fault.  The CLI turns these into exit code 2; nothing below the CLI prin
 
 from __future__ import annotations
 
+import re
 import unicodedata
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, TypeVar
@@ -206,14 +207,32 @@ def shortened(text: str, limit: int, *, end_share: float = 1 / 3) -> str:
     space = head.rfind(" ")
     if space >= head_room - head_room // 4:  # a word boundary within the last quarter
         head = head[: space + 1]
-    while head and _joined(line, len(head)):  # a mark kept with its letter ('é', not 'e')
+    inside = _escape_interiors(line)
+    while head and (_joined(line, len(head)) or len(head) in inside):  # 'é', not 'e'
         head = head[:-1]
     space = tail.find(" ")
     if 0 <= space <= tail_room // 4:
         tail = tail[space:]
-    while tail and _joined(line, len(line) - len(tail)):  # no mark on the ellipsis
-        tail = tail[1:]
+    while tail and (_joined(line, len(line) - len(tail)) or len(line) - len(tail) in inside):
+        tail = tail[1:]  # no mark on the ellipsis, no escape's digits after it
     return head + "…" + tail
+
+
+_ESCAPE = re.compile(r"\\(?:x[0-9a-fA-F]{2}|u[0-9a-fA-F]{4}|U[0-9a-fA-F]{8}|[ntr])")
+r"""A character :func:`printable` wrote as an escape (``\x1b``, ``\n``)."""
+
+
+def _escape_interiors(line: str) -> frozenset[int]:
+    r"""The positions inside an escape of ``line`` (after its ``\``): no cut falls there.
+
+    A long word of control characters, escaped by :func:`printable` before the CLI's line
+    is cut, was cut inside one: ``\x…0``.
+    """
+    if "\\" not in line:
+        return frozenset()
+    return frozenset(
+        at for found in _ESCAPE.finditer(line) for at in range(found.start() + 1, found.end())
+    )
 
 
 def _joined(line: str, at: int) -> bool:

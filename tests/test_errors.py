@@ -1,6 +1,7 @@
 """The error family's helpers (``hybridlog.errors``)."""
 
 import pickle
+import re
 from pathlib import Path
 
 import pytest
@@ -18,6 +19,7 @@ from hybridlog.errors import (
     arithmetic_reason,
     independent_of,
     prefixed,
+    printable,
     shortened,
 )
 from hybridlog.io.mcap_reader import UnfinishedLogError
@@ -114,6 +116,19 @@ def test_a_cut_never_parts_a_letter_from_its_combining_marks(unit: str, end_shar
         assert len(line) <= limit
         assert head == unit * (len(head) // len(unit)), (limit, line)
         assert tail == unit * (len(tail) // len(unit)), (limit, line)
+
+
+@pytest.mark.parametrize("unit", ["\x1b", "\n", "\u200b", "\U000e0001", "\x00\x07"])
+@pytest.mark.parametrize("end_share", [1 / 3, 2 / 3])
+def test_a_cut_never_falls_inside_an_escape(unit: str, end_share: float) -> None:
+    """The CLI's line escapes control characters, then cuts: a long word of them was cut
+    inside an escape, ``\\x1b\\x…0``, a tail that reads as text."""
+    whole = re.compile(r"(?:\\x[0-9a-f]{2}|\\u[0-9a-f]{4}|\\U[0-9a-f]{8}|\\n)*")
+    for limit in range(20, 60):
+        line = shortened(printable(unit * 200), limit, end_share=end_share)
+        head, tail = line.split("…")
+        assert len(line) <= limit
+        assert whole.fullmatch(head) and whole.fullmatch(tail), (limit, line)
 
 
 @given(
