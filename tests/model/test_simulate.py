@@ -130,6 +130,33 @@ def test_a_bad_schedule_names_the_model_file_and_key_or_the_option(tmp_path):
         simulate(model, schedule="1:10:2")
 
 
+@pytest.mark.parametrize(
+    ("old", "new", "said"),
+    [
+        (
+            "measurement = 0.5 ",
+            "measurement = 1e308 ",
+            r"y1 = -?[0-9.]+e\+15[34] at t = 0 s is out of range .*\): noise\.measurement's "
+            r"variance 1e\+308 \(a standard deviation of 1e\+154\) reaches it alone; ",
+        ),
+        (
+            "process = 0.5 ",
+            "process = 1e308 ",
+            r"x1 = -?[0-9.]+e\+15[34] at t = 1 s is out of range .*\): noise\.process's "
+            r"variance 1e\+308 \(a standard deviation of 1e\+154\) reaches it alone; ",
+        ),
+    ],
+)
+def test_values_the_noise_alone_reaches_name_the_noise_not_a_divergence(tmp_path, old, new, said):
+    """``[noise] measurement = 1e308`` was "the simulation diverged: y1 = -1.75e+154", as if
+    the equations had run away, naming no key (found by hostile59)."""
+    path = _model_file(tmp_path, TANK, old, new)
+    with pytest.raises(ModelError, match=rf"^{path}: the simulation's noise: {said}"):
+        simulate(load_model(path), steps=5, seed=0)
+    # noise off, the same model runs; a divergence of the equations is still one (below)
+    assert simulate(load_model(path), steps=5, seed=0, noise=False).states.shape == (6, 3)
+
+
 def test_divergence_and_missing_inputs_name_the_model_file(tmp_path):
     exploding = PENDULUM_ONE_MODE.replace('f = ["theta + 0.05*omega"', 'f = ["1e300*theta"')
     path = _model_file(tmp_path, exploding)
