@@ -202,8 +202,13 @@ def _patch_document(document: Any) -> None:
     document.Report.to_json = _timed("report.json + report.md", document.Report.to_json)
 
 
+def _patch_plot_figures(plot_figures: Any) -> None:
+    plot_figures.prepare_plotting = _worker_clocked(
+        "import matplotlib", plot_figures.prepare_plotting
+    )
+
+
 def _patch_plots(plots: Any) -> None:
-    plots.prepare_plotting = _worker_clocked("import matplotlib", plots.prepare_plotting)
     plots.draw_into = _worker_clocked("plots", plots.draw_into)
 
 
@@ -213,6 +218,7 @@ PATCHES: dict[str, Callable[[Any], None]] = {
     "hybridlog.estimators.common": _patch_common,
     "hybridlog.report.build": _patch_build,
     "hybridlog.report.plot_data": _patch_plot_data,
+    "hybridlog.report.plot_figures": _patch_plot_figures,
     "hybridlog.report.plots": _patch_plots,
     "hybridlog.report.document": _patch_document,
     "hybridlog.report.writer": _patch_writer,

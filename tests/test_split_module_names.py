@@ -11,7 +11,9 @@ pieces, ``outputs.py`` (now a package re-exporting its public names) its paths, 
 temporaries, records, target checks, staging and publishing, ``jobs/batch.py`` its outcomes,
 folder names, job, task of a log, batch folder, plan and summaries, ``model/loader.py`` its
 file keys, log fields, mode equations and mode switching, ``report/document.py`` its JSON
-values, the report's parts and its reader to modules of their own: after the splits,
+values, the report's parts and its reader, ``report/plots.py`` its figures made ahead,
+curves, labels, legends, time axis and ``modes.png`` to modules of their own: after the
+splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -108,6 +110,17 @@ SPLITS = {
     ),
     "hybridlog.report.document": tuple(
         f"hybridlog.report.{name}" for name in ("report_json", "report_parts", "report_reader")
+    ),
+    "hybridlog.report.plots": tuple(
+        f"hybridlog.report.{name}"
+        for name in (
+            "plot_figures",
+            "plot_curves",
+            "plot_labels",
+            "plot_legends",
+            "plot_time_axis",
+            "mode_plots",
+        )
     ),
 }
 """Each split module and the modules that took part of it."""

@@ -6,7 +6,7 @@ subtractive-clustering centres (black crosses) and the k-means centres (red plus
 Right: ``y(k)`` over time coloured the same way, the decision variables ``y_i*`` as
 horizontal lines, and the true mode when the log has it; times are drawn as the reports'
 figures draw them (a Unix-time log from its first sample, the label naming it,
-:func:`~hybridlog.report.plots.label_time_axis`).  With more than
+:func:`~hybridlog.report.plot_time_axis.label_time_axis`).  With more than
 :data:`MAX_CLUSTER_COLOURS` clusters (a small radius gives hundreds) one colour and one legend
 entry per cluster would repeat colours and bury the axes under the legend: the samples are
 then coloured by the mode their cluster decides (grey when unlabelled), and the decision
@@ -29,7 +29,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from hybridlog.report.plot_data import plain_text, time_origin
-from hybridlog.report.plots import label_time_axis, matplotlib_defaults
+from hybridlog.report.plot_figures import matplotlib_defaults
+from hybridlog.report.plot_time_axis import label_time_axis
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = ["MAX_CLUSTER_COLOURS", "plot_clusters", "save_reproducibly"]

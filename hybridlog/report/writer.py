@@ -17,7 +17,8 @@ from hybridlog.report.document import Report
 from hybridlog.report.gates import GATES_KEY, Gate, gate_records
 from hybridlog.report.markdown import render_markdown
 from hybridlog.report.plot_data import PlotReducer
-from hybridlog.report.plots import draw_into, figure_shapes, prepare_plotting
+from hybridlog.report.plot_figures import prepare_plotting
+from hybridlog.report.plots import draw_into, figure_shapes
 from hybridlog.report.table_format import TableFormat, check_table_format
 from hybridlog.report.tables import TableWriter, estimates_table, states_with_truth, timeline_table
 from hybridlog.signals import AlignedSignals
@@ -112,7 +113,7 @@ def write_report(
     (:class:`~hybridlog.report.plot_data.PlotReducer`) before the next is asked for, so a
     streamed run never holds its whole result.  When the plots are to be drawn, matplotlib
     is imported and the empty figures are made meanwhile
-    (:func:`~hybridlog.report.plots.prepare_plotting`), and the figures are drawn from the
+    (:func:`~hybridlog.report.plot_figures.prepare_plotting`), and the figures are drawn from the
     reduced data beside ``report.json``, ``report.md`` and the tables' last batches: both
     :func:`hybridlog.background.beside`, in the process's worker (the console script's
     ``analyze`` and ``compare``: the analysing process never imports matplotlib) or in a

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from hybridlog.report.plot_data import ModeTimelines, reduce_result
+from tests.support.figures import patch_save
 
 from .test_report_files import DT, T0, make_run
 
@@ -20,7 +21,7 @@ def test_a_mode_entered_at_the_last_sample_has_a_bar_inside_the_panel(
 ) -> None:
     """Each sample's mode is drawn up to the next sample's time: the last one's had no
     width, so a 4-sample log that switched at its end showed one mode throughout."""
-    from hybridlog.report import plots
+    from hybridlog.report import plot_figures, plots
 
     result, signals = make_run(n)
     modes = np.zeros(n, dtype=np.int64)
@@ -35,13 +36,13 @@ def test_a_mode_entered_at_the_last_sample_has_a_bar_inside_the_panel(
     assert end == pytest.approx(start + DT) and data.span == (T0, end)
 
     drawn: dict[str, Any] = {}
-    save = plots._save
+    save = plot_figures.save
 
     def keep_then_save(fig: Any, path: Path) -> Path:
         drawn[path.name] = fig
         return save(fig, path)
 
-    monkeypatch.setattr(plots, "_save", keep_then_save)
+    patch_save(monkeypatch, keep_then_save)
     plots.draw_plots(tmp_path, data)
     from matplotlib.colors import to_rgba
 

@@ -1,8 +1,9 @@
 """modes.png of many modes: the probabilities as a heat map on the mode panel's rows.
 
 32 modes were 32 crossing curves, their colours repeating from the 21st, over a six-column
-legend no curve could be matched to.  Past :data:`~hybridlog.report.plots.MOST_PROBABILITY_LINES`
-modes the probabilities are a heat map, a row per mode, drawn from the reduced curves.
+legend no curve could be matched to.  Past
+:data:`~hybridlog.report.mode_plots.MOST_PROBABILITY_LINES` modes the probabilities are a heat
+map, a row per mode, drawn from the reduced curves.
 """
 
 from __future__ import annotations
@@ -56,10 +57,10 @@ def _many_modes(
 def _modes_figure(
     monkeypatch: pytest.MonkeyPatch, tmp_path: Path, run: tuple[EstimationResult, AlignedSignals]
 ) -> Any:
-    from hybridlog.report import plots
+    from hybridlog.report import mode_plots
 
     data = reduce_result(*run)
-    draw = lambda: plots.plot_modes(data, tmp_path / "modes.png")  # noqa: E731
+    draw = lambda: mode_plots.plot_modes(data, tmp_path / "modes.png")  # noqa: E731
     return drawn_figures(monkeypatch, draw)["modes.png"]
 
 

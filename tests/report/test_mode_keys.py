@@ -126,7 +126,7 @@ def test_twelve_modes_get_twelve_curves_apart_and_a_legend_off_them(
 def test_a_components_figure_keys_every_panel_when_one_is_too_wide(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from hybridlog.report import plots
+    from hybridlog.report import mode_plots
 
     result, signals = _run(500, seed=2, components=True)
     data = reduce_result(result, signals)
@@ -137,7 +137,7 @@ def test_a_components_figure_keys_every_panel_when_one_is_too_wide(
         data,
         modes=data.modes._replace(columns=(column._replace(labels=labels),)),
     )
-    fig = _drawn_modes(monkeypatch, lambda: plots.plot_modes(data, tmp_path / "modes.png"))
+    fig = _drawn_modes(monkeypatch, lambda: mode_plots.plot_modes(data, tmp_path / "modes.png"))
     shown = [t.get_text() for ax in fig.axes for t in ax.get_yticklabels()]
     assert all(s.startswith("[") for s in shown), shown
     entries = _legend_below_panels(fig)

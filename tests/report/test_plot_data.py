@@ -426,7 +426,7 @@ def test_a_components_modes_png_keeps_its_labels_and_title_inside(
     (``one_bank_out``), the component's name and the joint assignments
     (``partly_open|partly_open|closed|closed|full|growth``) were cut off at the figure's
     left edge, and the title of the tall figure ran into its first panel."""
-    from hybridlog.report import plots
+    from hybridlog.report import mode_plots, plot_figures
 
     result, signals = _run(3_000, seed=5, smoothed=True, components=True, mode_sequence="kbest")
     data = reduce_result(result, signals)
@@ -444,9 +444,11 @@ def test_a_components_modes_png_keeps_its_labels_and_title_inside(
         data, modes=data.modes._replace(columns=columns, joint_ids=joint_ids)
     )
     drawn: list[Any] = []
-    save = plots._save
-    monkeypatch.setattr(plots, "_save", lambda fig, path: (drawn.append(fig), save(fig, path))[1])
-    plots.plot_modes(data, tmp_path / "modes.png")
+    save = plot_figures.save
+    monkeypatch.setattr(
+        mode_plots, "save", lambda fig, path: (drawn.append(fig), save(fig, path))[1]
+    )
+    mode_plots.plot_modes(data, tmp_path / "modes.png")
     (fig,) = drawn
     renderer = fig.canvas.get_renderer()
     texts = [

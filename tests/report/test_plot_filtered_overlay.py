@@ -17,7 +17,7 @@ import pytest
 from matplotlib.figure import Figure
 
 from hybridlog.estimators.result import EstimationResult, PostProcessing
-from hybridlog.report import plots
+from hybridlog.report import plot_figures, plots
 from hybridlog.report.plot_data import ModeTimelines, PlotReducer, reduce_result
 from hybridlog.signals import AlignedSignals
 
@@ -142,8 +142,8 @@ def test_outputs_png_overlays_the_output_the_offline_estimate_explains(
     viterbi = _offline(filtered, modes=1 - filtered.modes)
     assert reduce_result(viterbi, _signals()).outputs[0].explained is None  # none carried
     drawn: list[Figure] = []
-    save = plots._save
-    monkeypatch.setattr(plots, "_save", lambda fig, path: drawn.append(fig) or save(fig, path))
+    save = plot_figures.save
+    monkeypatch.setattr(plots, "save", lambda fig, path: drawn.append(fig) or save(fig, path))
     plots.plot_outputs(data, tmp_path / "smoothed.png")
     plots.plot_outputs(plain, tmp_path / "filtered.png")
     labels = [[line.get_label() for line in fig.axes[0].get_lines()] for fig in drawn]

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.report.plot_data import plain_text
 from hybridlog.signals import AlignedSignals
+from tests.support.figures import patch_save
 
 from .test_report_files import make_run
 
@@ -63,10 +64,10 @@ def test_mode_ids_with_dollars_are_drawn_as_written(
 ) -> None:
     from matplotlib.figure import Figure
 
-    from hybridlog.report import plots
+    from hybridlog.report import plot_figures, plots
 
     drawn: list[str] = []
-    save = plots._save
+    save = plot_figures.save
 
     def texts_then_save(fig: Figure, path: Path) -> Path:
         drawn.extend(t.get_text() for ax in fig.axes for t in ax.get_yticklabels())
@@ -74,7 +75,7 @@ def test_mode_ids_with_dollars_are_drawn_as_written(
         drawn.extend(t.get_text() for legend in legends if legend for t in legend.get_texts())
         return save(fig, path)
 
-    monkeypatch.setattr(plots, "_save", texts_then_save)
+    patch_save(monkeypatch, texts_then_save)
     result, signals = _run_with_modes(ids)
     written = plots.write_plots(tmp_path, result, signals)
     assert [p.name for p in written] == ["outputs.png", "modes.png", "states.png"]
@@ -109,10 +110,10 @@ def test_every_mode_id_is_inside_the_modes_figure(
     """Long mode ids were cut off at the fixed margin (up to half the figure now fits)."""
     from matplotlib.figure import Figure
 
-    from hybridlog.report import plots
+    from hybridlog.report import plot_figures, plots
 
     lefts: list[float] = []
-    save = plots._save
+    save = plot_figures.save
 
     def measured_then_save(fig: Figure, path: Path) -> Path:
         if path.name == "modes.png":
@@ -127,7 +128,7 @@ def test_every_mode_id_is_inside_the_modes_figure(
                 )
         return save(fig, path)
 
-    monkeypatch.setattr(plots, "_save", measured_then_save)
+    patch_save(monkeypatch, measured_then_save)
     ids = ("q" * width, "m" * max(width - 1, 1) + "2", "i")
     plots.write_plots(tmp_path, *_run_with_modes(ids))
     assert len(lefts) >= 5 and min(lefts) >= 0.0
@@ -171,16 +172,16 @@ def test_extreme_values_are_drawn_in_a_unit_that_keeps_the_axes_finite(
     """Values near ±1.8e308 overflowed matplotlib's autoscaling (a RuntimeWarning: no report)."""
     from matplotlib.figure import Figure
 
-    from hybridlog.report import plots
+    from hybridlog.report import plot_figures, plots
 
     labels: dict[str, list[str]] = {}
-    save = plots._save
+    save = plot_figures.save
 
     def labelled_then_save(fig: Figure, path: Path) -> Path:
         labels[path.name] = [ax.get_ylabel() for ax in fig.axes]
         return save(fig, path)
 
-    monkeypatch.setattr(plots, "_save", labelled_then_save)
+    patch_save(monkeypatch, labelled_then_save)
     plots.write_plots(tmp_path, *_extreme(case))
     assert labels["states.png"][0] == f"x1{unit}"
     assert labels["outputs.png"][0] == f"y1{unit}"

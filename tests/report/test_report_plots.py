@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from hybridlog.report import mode_metrics
+from hybridlog.report.plot_curves import DASHED_BAND_ALPHA, draw_curve
 from hybridlog.report.plot_data import (
     PixelBins,
     envelope,
@@ -17,7 +18,7 @@ from hybridlog.report.plot_data import (
     pixel_columns,
     time_bins,
 )
-from hybridlog.report.plots import DASHED_BAND_ALPHA, draw_curve, set_time_span
+from hybridlog.report.plot_time_axis import set_time_span
 
 
 def _per_column(
@@ -238,7 +239,7 @@ def test_figures_made_ahead_draw_the_same_pngs_and_are_taken_once(tmp_path) -> N
     from hybridlog.estimators.filter_options import ImmOptions
     from hybridlog.estimators.imm import run_imm
     from hybridlog.model.loader import load_model
-    from hybridlog.report import plots
+    from hybridlog.report import plot_figures, plots
     from hybridlog.simulate import simulate
 
     model = load_model("three_tank_hstf")
@@ -247,21 +248,22 @@ def test_figures_made_ahead_draw_the_same_pngs_and_are_taken_once(tmp_path) -> N
     fresh, ahead = tmp_path / "fresh", tmp_path / "ahead"
     fresh.mkdir()
     ahead.mkdir()
-    plots._READY.clear()
+    plot_figures._READY.clear()
     plots.write_plots(fresh, result, signals)
     shapes = plots.figure_shapes(
         model.n_outputs, model.n_states, bool(model.components), model.n_modes
     )
     assert shapes == [(3, 2.0), (3, 2.0), (2, 2.4)]
-    plots.prepare_figures(shapes)
-    plots.prepare_figures(shapes)
+    plot_figures.prepare_figures(shapes)
+    plot_figures.prepare_figures(shapes)
     # as many per shape as the plots take, however often asked
-    assert {key: len(ready) for key, ready in plots._READY.items()} == {(3, 2.0): 2, (2, 2.4): 1}
-    ((made, _),) = plots._READY[(2, 2.4)]
-    assert plots._new_figure(2, panel_height=2.4)[0] is made and not plots._READY[(2, 2.4)]
-    plots.prepare_figures(shapes)
+    ready = plot_figures._READY
+    assert {key: len(figures) for key, figures in ready.items()} == {(3, 2.0): 2, (2, 2.4): 1}
+    ((made, _),) = ready[(2, 2.4)]
+    assert plot_figures.new_figure(2, panel_height=2.4)[0] is made and not ready[(2, 2.4)]
+    plot_figures.prepare_figures(shapes)
     plots.write_plots(ahead, result, signals)
-    assert not any(plots._READY.values())  # the three plots took what was made for them
+    assert not any(plot_figures._READY.values())  # the three plots took what was made for them
     for name in ("outputs.png", "modes.png", "states.png"):
         assert (ahead / name).read_bytes() == (fresh / name).read_bytes(), name
 
