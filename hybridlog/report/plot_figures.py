@@ -98,8 +98,7 @@ def prepare_figures(shapes: Sequence[tuple[int, float]]) -> None:
 def import_matplotlib() -> None:
     """Import what the figures are drawn with: matplotlib's figure and Agg canvas.
 
-    About 0.3 s of Python: the console script's worker process does it first thing, while
-    the command imports its own modules and reads the log (``hybridlog.cli``).
+    About 0.3 s of Python, done by :func:`prepare_plotting` beside the estimator's run.
     """
     import matplotlib.backends.backend_agg
     import matplotlib.figure  # noqa: F401
