@@ -11,7 +11,8 @@ pieces, ``outputs.py`` (now a package re-exporting its public names) its paths, 
 temporaries, records, target checks, staging and publishing, ``jobs/batch.py`` its outcomes,
 folder names, job, task of a log, batch folder, plan and summaries, ``model/loader.py`` its
 file keys, log fields, mode equations and mode switching, ``report/document.py`` its JSON
-values, the report's parts and its reader to modules of their own: after the splits,
+values, the report's parts and its reader, ``jobs/analysis.py`` its ``--set`` overrides, gate
+checks, estimation steps and ``compare`` to modules of their own: after the splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -108,6 +109,10 @@ SPLITS = {
     ),
     "hybridlog.report.document": tuple(
         f"hybridlog.report.{name}" for name in ("report_json", "report_parts", "report_reader")
+    ),
+    "hybridlog.jobs.analysis": tuple(
+        f"hybridlog.jobs.{name}"
+        for name in ("overrides", "gate_checks", "estimation", "comparison")
     ),
 }
 """Each split module and the modules that took part of it."""
