@@ -159,11 +159,14 @@ def _patch(module: Any, name: str, stage: str) -> None:
 def _patch_analysis(analysis: Any) -> None:
     _patch(analysis, "parse_sets", "model (load, sympy)")
     _patch(analysis, "prepare_estimators", "estimator options")
-    _patch(analysis, "read_log", "read log")
-    # its ``set_up`` is jit's, bound after jit's own wrapper (a worker's clock) was put on it
-    set_up = analysis.set_up
-    analysis.set_up = _timed("numba set-up", getattr(set_up, "__wrapped__", set_up))
     analysis.estimates = _estimates_clocked(analysis.estimates)
+
+
+def _patch_estimation(estimation: Any) -> None:
+    _patch(estimation, "read_log", "read log")
+    # its ``set_up`` is jit's, bound after jit's own wrapper (a worker's clock) was put on it
+    set_up = estimation.set_up
+    estimation.set_up = _timed("numba set-up", getattr(set_up, "__wrapped__", set_up))
 
 
 def _patch_jit(jit: Any) -> None:
@@ -223,6 +226,7 @@ PATCHES: dict[str, Callable[[Any], None]] = {
     "hybridlog.report.document": _patch_document,
     "hybridlog.report.writer": _patch_writer,
     "hybridlog.jobs.analysis": _patch_analysis,
+    "hybridlog.jobs.estimation": _patch_estimation,
 }
 """Each timed module's stages, wrapped when the command first imports it (:class:`_OnImport`)."""
 

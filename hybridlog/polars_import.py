@@ -17,7 +17,7 @@ action for ``SIGINT``, whatever :func:`signal.getsignal` says it is: the default
 ``KeyboardInterrupt``, once the polars call running returns (a chunk read or written), and an
 ignored one stays ignored.  Only the main thread may set an action: where polars is first
 imported in another (a log read in a thread while numba sets up,
-:func:`hybridlog.jobs.analysis.read_for_estimation`), the main thread calls
+:func:`hybridlog.jobs.estimation.read_for_estimation`), the main thread calls
 :func:`take_back_sigint` once that thread is done.  ``tests/test_polars_import.py``.
 """
 

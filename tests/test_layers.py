@@ -339,7 +339,7 @@ def test_files_an_estimator_option_names_are_read_by_the_jobs() -> None:
     # An option naming an input file (FILE_OPTIONS) is read by the job and handed to the
     # run function as the keyword of the same name; the estimator itself reads no file.
     from hybridlog.estimators import ESTIMATORS
-    from hybridlog.jobs.analysis import FILE_OPTIONS
+    from hybridlog.jobs.estimation import FILE_OPTIONS
 
     taking = set()
     for name, entry in ESTIMATORS.items():

@@ -12,7 +12,8 @@ temporaries, records, target checks, staging and publishing, ``jobs/batch.py`` i
 folder names, job, task of a log, batch folder, plan and summaries, ``model/loader.py`` its
 file keys, log fields, mode equations and mode switching, ``report/document.py`` its JSON
 values, the report's parts and its reader, ``report/plots.py`` its figures made ahead,
-curves, labels, legends, time axis and ``modes.png`` to modules of their own: after the
+curves, labels, legends, time axis and ``modes.png``, ``jobs/analysis.py`` its ``--set``
+overrides, gate checks, estimation steps and ``compare`` to modules of their own: after the
 splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
@@ -121,6 +122,10 @@ SPLITS = {
             "plot_time_axis",
             "mode_plots",
         )
+    ),
+    "hybridlog.jobs.analysis": tuple(
+        f"hybridlog.jobs.{name}"
+        for name in ("overrides", "gate_checks", "estimation", "comparison")
     ),
 }
 """Each split module and the modules that took part of it."""

@@ -27,7 +27,7 @@ from hybridlog.estimators.chiu import ChiuOptions, run_chiu
 from hybridlog.estimators.kmeans import KMeansOptions, run_kmeans
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.io import ReadOptions
-from hybridlog.jobs.analysis import read_log
+from hybridlog.jobs.estimation import read_log
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model, parse_model

@@ -2,7 +2,7 @@
 
 The ``O(N²)`` exact potentials of a long log in many dimensions take minutes
 (:mod:`hybridlog.cluster.subtractive`); a model's first run compiles its filters' machine
-code, up to a minute (:func:`hybridlog.jobs.analysis.warm_up` holds :attr:`WorkReporter.wait`
+code, up to a minute (:func:`hybridlog.jobs.estimation.warm_up` holds :attr:`WorkReporter.wait`
 around it).  The library prints nothing; a command that wants a note and a progress bar
 installs a :class:`WorkReporter` around the call with :func:`reporting` (``hybridlog
 cluster`` does: the note and the bar go to stderr, the bar only on a terminal, neither with

@@ -723,7 +723,7 @@ class Prepared:
         Numba's cached machine code, for an entry with ``stream`` (the filters, whose
         compiled loops take about 0.5 s to load), its chunks discarded: the console script
         sends it to the estimators' worker as soon as the options are checked, so that the
-        loading happens while the command reads the log (``hybridlog.jobs.analysis``).
+        loading happens while the command reads the log (``hybridlog.jobs.estimation``).
         Other entries have nothing to load ahead.  What it raises is raised again by the run
         itself.
         """

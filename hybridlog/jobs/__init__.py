@@ -1,7 +1,11 @@
 """The jobs the commands run: the only layer that reads logs and models and writes outputs.
 
-- :mod:`~hybridlog.jobs.analysis`: ``analyze`` (one log, one estimator, one report folder)
-  and ``compare`` (one log, several estimators, a side-by-side table).
+- :mod:`~hybridlog.jobs.analysis`: ``analyze`` (one log, one estimator, one report folder),
+  and :mod:`~hybridlog.jobs.comparison`: ``compare`` (one log, several estimators, a
+  side-by-side table); the steps they share with ``batch`` are
+  :mod:`~hybridlog.jobs.overrides` (``--set``, ``--smooth``, ``--mode-sequence`` and the
+  estimators prepared), :mod:`~hybridlog.jobs.gate_checks` (the CI gates checked) and
+  :mod:`~hybridlog.jobs.estimation` (the inputs, the log read and checked, the estimators run).
 - :mod:`~hybridlog.jobs.batch`: many logs, one report folder each, a summary; its parts are
   the ``batch_*`` modules, its worker processes are in :mod:`~hybridlog.jobs.workers`.
 - :mod:`~hybridlog.jobs.cluster`: ``hybridlog cluster``, the mode classifier of paper 001

@@ -157,7 +157,7 @@ def run_batch(
     scheduler is at ``scheduler``.  ``junit`` names a JUnit XML file to write
     (:func:`hybridlog.report.junit.write_junit`).  ``smooth`` and ``mode_sequence`` are
     ``--smooth`` and ``--mode-sequence``
-    (:func:`hybridlog.jobs.analysis.smoothing_overrides`); as estimator options they are part
+    (:func:`hybridlog.jobs.overrides.smoothing_overrides`); as estimator options they are part
     of the settings a resumed batch compares, so changing them redoes every log.
 
     With ``jobs > 1`` the workers are :mod:`multiprocessing` processes, which import the

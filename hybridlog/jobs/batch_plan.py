@@ -22,14 +22,6 @@ from typing import Any
 from hybridlog.errors import OutputError, excerpt
 from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
-from hybridlog.jobs.analysis import (
-    Overrides,
-    estimator_inputs,
-    gates_for,
-    input_paths,
-    parse_sets,
-    prepare_estimators,
-)
 from hybridlog.jobs.batch_folders import prepare_root, report_kind
 from hybridlog.jobs.batch_job import BatchJob
 from hybridlog.jobs.batch_logs import natural_key
@@ -37,7 +29,10 @@ from hybridlog.jobs.batch_names import SUMMARY_NAMES, folder_names
 from hybridlog.jobs.batch_others import report_folders
 from hybridlog.jobs.batch_summaries import summaries_ours
 from hybridlog.jobs.batch_task import WARM, WARM_LOCK, Warm, input_files, warm_key
+from hybridlog.jobs.estimation import estimator_inputs, input_paths
+from hybridlog.jobs.gate_checks import gates_for
 from hybridlog.jobs.origins import given_values, run_values
+from hybridlog.jobs.overrides import Overrides, parse_sets, prepare_estimators
 from hybridlog.jobs.provenance import content_hash, folder_stamp, model_hash
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (

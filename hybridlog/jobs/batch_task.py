@@ -32,23 +32,22 @@ from hybridlog.errors import (
     excerpt,
 )
 from hybridlog.estimators import Prepared
-from hybridlog.jobs.analysis import (
-    FILE_OPTIONS,
-    check_signals,
-    estimator_inputs,
-    gates_for,
-    memory_reserved,
-    parse_sets,
-    prepare_estimators,
-    read_log,
-)
 from hybridlog.jobs.batch_folders import check_apart_from_reports
 from hybridlog.jobs.batch_job import BatchJob
 from hybridlog.jobs.batch_logs import missing_pattern_hint, recover_applies
 from hybridlog.jobs.batch_others import PROVENANCE_KEY
 from hybridlog.jobs.batch_outcomes import LogOutcome, error_line
+from hybridlog.jobs.estimation import (
+    FILE_OPTIONS,
+    check_signals,
+    estimator_inputs,
+    memory_reserved,
+    read_log,
+)
 from hybridlog.jobs.estimator_calls import warm_up_told
+from hybridlog.jobs.gate_checks import gates_for
 from hybridlog.jobs.origins import given_in_chunks, given_values, run_values
+from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.jobs.provenance import content_hash, folder_stamp, log_stamp, model_hash
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import check_dir_target, edited_files, recorded_files

@@ -49,8 +49,8 @@ from hybridlog.estimators.registry import resolve_estimator
 from hybridlog.estimators.switched_observer import LinearModes
 from hybridlog.io import ReadOptions
 from hybridlog.jobs import arguments
-from hybridlog.jobs.analysis import input_paths, read_log
 from hybridlog.jobs.cluster_plot import plot_clusters
+from hybridlog.jobs.estimation import input_paths, read_log
 from hybridlog.model.cache import load_model
 from hybridlog.model.compiled import model_key
 from hybridlog.model.hybrid_model import HybridModel

@@ -1,11 +1,12 @@
 """What ``analyze`` and ``compare`` send their estimators' worker to run, apart from the job.
 
 A function sent to a worker (:mod:`hybridlog.background`) goes pickled by its module and
-name, and the worker imports that module to run it.  Sent from :mod:`hybridlog.jobs.analysis`
-itself, they made the worker import the whole job, with the readers' and the report's modules
-it never runs: its warm-up request took 0.12 s of a core, against 0.08 s from here, while
-the command reads its log on the other one.  This module imports only what an estimator's
-warm-up and its chunks need (``tests/jobs/test_estimator_calls.py``).
+name, and the worker imports that module to run it.  Sent from the job's own module (they are
+sent by :mod:`hybridlog.jobs.estimation`), they made the worker import the whole job, with the
+readers' and the report's modules it never runs: its warm-up request took 0.12 s of a core,
+against 0.08 s from here, while the command reads its log on the other one.  This module
+imports only what an estimator's warm-up and its chunks need
+(``tests/jobs/test_estimator_calls.py``).
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ from pathlib import Path
 from hybridlog.estimators.capabilities import ModelTraits
 from hybridlog.estimators.options import OptionSource, parse_options, shown
 from hybridlog.estimators.registry import ESTIMATORS, Prepared, prepare, unsuited, unsuited_text
-from hybridlog.jobs.analysis import estimator_inputs
+from hybridlog.jobs.estimation import estimator_inputs
 from hybridlog.model.cache import load_model
 from hybridlog.model.diagnosis import model_diagnoses
 from hybridlog.model.hybrid_model import HybridModel

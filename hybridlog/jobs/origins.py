@@ -42,7 +42,7 @@ def run_values(
     """``{"parameters": {...}, "origins": {...}}`` of a run (module docstring).
 
     ``parameter_texts``: the ``--set`` parameters as typed
-    (:attr:`hybridlog.jobs.analysis.Overrides.parameter_texts`).
+    (:attr:`hybridlog.jobs.overrides.Overrides.parameter_texts`).
     """
     where = model.origin or model.name
     origins: dict[str, str] = {}

@@ -21,7 +21,8 @@ from hybridlog.estimators import ESTIMATORS, Capabilities, Estimator, get_estima
 from hybridlog.estimators.capabilities import ModelTraits
 from hybridlog.estimators.options import option, options_dict
 from hybridlog.estimators.result import EstimationResult, ResultShapeError
-from hybridlog.jobs.analysis import Overrides, analyze, parse_sets, prepare_estimators
+from hybridlog.jobs.analysis import analyze
+from hybridlog.jobs.overrides import Overrides, parse_sets, prepare_estimators
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.report import build_report
 from hybridlog.simulate import simulate

@@ -152,7 +152,8 @@ def test_a_one_mode_model_needs_no_switching_signal_in_the_log(vdp_log, tmp_path
     ("needs the switching signal in the log"), for a column that could hold one value."""
     import polars as pl
 
-    from hybridlog.jobs.analysis import analyze, modes_given
+    from hybridlog.jobs.analysis import analyze
+    from hybridlog.jobs.gate_checks import modes_given
 
     model = parse_model(VAN_DER_POL)
     blind = AlignedSignals(**{**vdp_log.__dict__, "truth_modes": None})

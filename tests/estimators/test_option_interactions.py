@@ -23,7 +23,7 @@ from hybridlog.estimators.hstf import (
 )
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.options import OptionSource, option, parse_options
-from hybridlog.jobs.analysis import parse_sets, prepare_estimators
+from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.model.loader import load_model
 from hybridlog.simulate import simulate
 from tests.support.cpha import CPHA_EXAMPLE

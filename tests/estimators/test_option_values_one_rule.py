@@ -16,7 +16,7 @@ import pytest
 from hybridlog.errors import ModelError, OptionError
 from hybridlog.estimators.options import OptionSource, option, parse_options
 from hybridlog.estimators.registry import prepare
-from hybridlog.jobs.analysis import parse_sets, prepare_estimators
+from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.model.loader import load_model, parse_model
 from tests.support.paths import ROOT
 

@@ -12,7 +12,7 @@ from hybridlog.errors import DivergenceError, LogError, ModelError, OptionError
 from hybridlog.estimators import prepare
 from hybridlog.estimators.sliding_mode import channel_gains, least_share, run_sliding_mode
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
-from hybridlog.jobs.analysis import parse_sets, prepare_estimators
+from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.signals import AlignedSignals

@@ -14,8 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.comparison import compare
 from tests.jobs.test_batch_resume import write_logs
 
 TANK = "three_tank_hstf"

@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 from hybridlog.errors import DivergenceError, LogError, ModelError
-from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.jobs.analysis import analyze
+from hybridlog.jobs.comparison import compare
 from tests.support.paths import ROOT
 
 SQRT = """

@@ -21,9 +21,12 @@ from typing import Any
 import pytest
 
 from hybridlog.errors import LogError, OptionError
-from hybridlog.jobs import analysis
-from hybridlog.jobs.analysis import compare
+from hybridlog.jobs import comparison
+from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.gate_checks import gates_for
+from hybridlog.jobs.overrides import Overrides, prepare_estimators
 from hybridlog.jobs.simulate import simulate_log
+from hybridlog.model.cache import load_model
 
 TANK = """
 name = "one_tank"
@@ -93,7 +96,7 @@ def test_a_log_without_the_switching_signal_is_refused_before_any_estimator_runs
     def ran(*args: Any, **kwargs: Any) -> Any:
         raise AssertionError("an estimator ran on a log compare refuses")
 
-    monkeypatch.setattr(analysis, "estimates", ran)
+    monkeypatch.setattr(comparison, "estimates", ran)
     out = tmp_path / "cmp"
     with pytest.raises(
         LogError,
@@ -142,7 +145,7 @@ def test_a_gate_on_a_mode_metric_the_switching_signal_gives_is_refused_before_an
     def ran(*args: Any, **kwargs: Any) -> Any:
         raise AssertionError("an estimator ran under a gate that could never pass")
 
-    monkeypatch.setattr(analysis, "estimates", ran)
+    monkeypatch.setattr(comparison, "estimates", ran)
     out = tmp_path / "cmp"
     flag = "--" + option.replace("_", "-")
     metric = gate.partition("=")[0]
@@ -155,7 +158,7 @@ def test_a_gate_on_a_mode_metric_the_switching_signal_gives_is_refused_before_an
         compare(log, model, BOTH, out_dir=out, **{option: [gate]})
     assert not out.exists()
     # the same gate on the estimator that estimates its modes alone is taken
-    loaded = analysis.load_model(model)
-    alone = analysis.prepare_estimators(loaded, ["sliding-mode"], analysis.Overrides())
-    gates = analysis.gates_for(loaded, alone, **{"fail_under": (), "fail_over": (), option: [gate]})
+    loaded = load_model(model)
+    alone = prepare_estimators(loaded, ["sliding-mode"], Overrides())
+    gates = gates_for(loaded, alone, **{"fail_under": (), "fail_over": (), option: [gate]})
     assert [g.metric for g in gates] == [metric]

@@ -26,6 +26,10 @@ from tests.support.paths import TANK_CSV
 
 NOT_IN_THE_WORKER = (
     "hybridlog.jobs.analysis",
+    "hybridlog.jobs.comparison",
+    "hybridlog.jobs.estimation",
+    "hybridlog.jobs.gate_checks",
+    "hybridlog.jobs.overrides",
     "hybridlog.io.load",
     "hybridlog.report.document",
     "hybridlog.report.report_parts",

@@ -14,9 +14,10 @@ import pytest
 
 from hybridlog.errors import OptionError
 from hybridlog.estimators.chiu import ChiuOptions
-from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.cluster import discover_modes
+from hybridlog.jobs.comparison import compare
 from hybridlog.jobs.simulate import simulate_log
 from tests.support.paths import ROOT
 

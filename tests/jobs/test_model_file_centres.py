@@ -8,8 +8,10 @@ import pytest
 from hybridlog.errors import ModelError, OptionError
 from hybridlog.estimators.observer_options import ChiuOptions
 from hybridlog.estimators.registry import prepare
-from hybridlog.jobs.analysis import analyze, compare, estimator_inputs
+from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.cluster import discover_modes
+from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.estimation import estimator_inputs
 from hybridlog.model.builtins import builtin_text as builtin_source
 from hybridlog.model.cache import load_model
 from tests.support.paths import SAMPLE_LOGS

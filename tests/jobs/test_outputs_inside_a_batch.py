@@ -15,8 +15,9 @@ import pytest
 
 from hybridlog.errors import OutputError
 from hybridlog.io.writers import write_table
-from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.comparison import compare
 from hybridlog.outputs.folder_targets import check_outside_batch
 from tests.support.logfiles import tank_run
 

@@ -29,9 +29,10 @@ from hybridlog.io import ReadOptions
 from hybridlog.io.bag_writers import check_log_target, write_log, written_by_hybridlog
 from hybridlog.io.writers import write_table
 from hybridlog.jobs import cluster as cluster_job
-from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.cluster import discover_modes
+from hybridlog.jobs.comparison import compare
 from hybridlog.model.builtins import builtin_text
 from hybridlog.outputs import (
     MARKER,

@@ -11,7 +11,8 @@ import math
 import re
 from pathlib import Path
 
-from hybridlog.jobs.analysis import analyze, compare
+from hybridlog.jobs.analysis import analyze
+from hybridlog.jobs.comparison import compare
 from hybridlog.report import read_report, render_markdown
 from hybridlog.report.gates import GATES_KEY, gate_records, parse_gates
 from tests.support.paths import ROOT

@@ -14,8 +14,10 @@ from pathlib import Path
 import pytest
 
 from hybridlog.errors import HybridlogError, ModelError, OptionError
-from hybridlog.jobs.analysis import analyze, compare, parse_sets
+from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.overrides import parse_sets
 from hybridlog.jobs.simulate import simulate_log
 from hybridlog.model.builtins import builtin_text
 from tests.jobs.test_batch_resume import TANK, write_logs

@@ -15,9 +15,11 @@ from pathlib import Path
 import pytest
 
 from hybridlog.errors import OptionError
-from hybridlog.jobs.analysis import analyze, compare, parse_sets, prepare_estimators
+from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
+from hybridlog.jobs.comparison import compare
 from hybridlog.jobs.origins import run_values
+from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from tests.jobs.test_batch_resume import TANK, write_logs
 from tests.support.cli import run_main
 

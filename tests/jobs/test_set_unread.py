@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from hybridlog.errors import OptionError
-from hybridlog.jobs.analysis import parse_sets
+from hybridlog.jobs.overrides import parse_sets
 from hybridlog.jobs.simulate import simulate_log
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.loader import parse_model
