@@ -501,7 +501,7 @@ def compare_command(
     """The ``compare`` command; its help is :data:`_HELP_COMPARE`."""
     one_bounded_job()  # before the job's imports: polars' allocator reads its options
     from hybridlog.cluster.progress import reporting
-    from hybridlog.jobs.comparison import compare
+    from hybridlog.jobs.compare import compare
 
     read, common = split_options(options)
     names = list(estimators)

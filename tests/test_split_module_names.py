@@ -124,8 +124,7 @@ SPLITS = {
         )
     ),
     "hybridlog.jobs.analysis": tuple(
-        f"hybridlog.jobs.{name}"
-        for name in ("overrides", "gate_checks", "estimation", "comparison")
+        f"hybridlog.jobs.{name}" for name in ("overrides", "gate_checks", "estimation", "compare")
     ),
 }
 """Each split module and the modules that took part of it."""

@@ -1,7 +1,7 @@
 """The jobs the commands run: the only layer that reads logs and models and writes outputs.
 
 - :mod:`~hybridlog.jobs.analysis`: ``analyze`` (one log, one estimator, one report folder),
-  and :mod:`~hybridlog.jobs.comparison`: ``compare`` (one log, several estimators, a
+  and :mod:`~hybridlog.jobs.compare`: ``compare`` (one log, several estimators, a
   side-by-side table); the steps they share with ``batch`` are
   :mod:`~hybridlog.jobs.overrides` (``--set``, ``--smooth``, ``--mode-sequence`` and the
   estimators prepared), :mod:`~hybridlog.jobs.gate_checks` (the CI gates checked) and

@@ -2,7 +2,7 @@
 
 This layer joins the others (``io`` → ``model`` → ``estimators`` → ``report``) and is what
 the CLI calls; it prints nothing and raises :class:`~hybridlog.errors.HybridlogError`.  The
-steps it shares with ``compare`` (:mod:`~hybridlog.jobs.comparison`) and ``batch`` are
+steps it shares with ``compare`` (:mod:`~hybridlog.jobs.compare`) and ``batch`` are
 modules of their own: :mod:`~hybridlog.jobs.overrides` (``--set`` and the estimators'
 options), :mod:`~hybridlog.jobs.gate_checks` (the CI gates) and
 :mod:`~hybridlog.jobs.estimation` (the log read and checked, the estimator run).

@@ -275,8 +275,8 @@ def check_signals(
     :meth:`Prepared.check_signals <hybridlog.estimators.Prepared.check_signals>`: the
     switching signal, the commands the transition rules name.  Found as the estimator
     started, a log without the switching signal or a command of the last one named was
-    refused after the others had run, their work lost.  Named as :func:`_watched` names a
-    run's error when several are compared.
+    refused after the others had run, their work lost.  Named as
+    :func:`hybridlog.jobs.compare._watched` names a run's error when several are compared.
     """
     for estimator in prepared:
         try:

@@ -16,7 +16,7 @@ import polars as pl
 import pytest
 
 from hybridlog.errors import OptionError
-from hybridlog.jobs.comparison import _smoothing_columns, compare
+from hybridlog.jobs.compare import _smoothing_columns, compare
 from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.model.builtins import builtin_text
 from tests.cli.test_cli import run

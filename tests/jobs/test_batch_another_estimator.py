@@ -96,7 +96,7 @@ def test_a_comparison_written_into_the_batch_folder_does_not_stop_the_batch(
     its reports, of other estimators by nature, made every later run of the batch refused,
     exit 2, "use --force to replace them" (which replaced nothing of it either).  Only a
     batch's reports count now; the comparison is named among the other report folders, once."""
-    from hybridlog.jobs.comparison import compare
+    from hybridlog.jobs.compare import compare
 
     logs, out = _batch_folder(tmp_path)
     compare(logs[0], TANK, estimators=["hstf", "imm"], out_dir=out / "cmp")

@@ -16,7 +16,7 @@ import pytest
 
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from tests.jobs.test_batch_resume import write_logs
 
 TANK = "three_tank_hstf"

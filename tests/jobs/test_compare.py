@@ -13,7 +13,7 @@ import pytest
 from hybridlog.errors import ModelError, OptionError
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.cluster import discover_modes
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.model.builtins import builtin_text
 from hybridlog.report.markdown import escape_markdown
 from tests.support.paths import ROOT

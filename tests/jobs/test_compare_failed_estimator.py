@@ -19,7 +19,7 @@ import pytest
 
 from hybridlog.errors import DivergenceError, LogError, ModelError
 from hybridlog.jobs.analysis import analyze
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from tests.support.paths import ROOT
 
 SQRT = """

@@ -6,7 +6,7 @@ import csv
 import json
 from pathlib import Path
 
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from tests.support.paths import ROOT
 
 CART = ROOT / "sample_logs" / "double_cart_case1.csv"

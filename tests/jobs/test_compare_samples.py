@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.report import read_report
 from hybridlog.report.comparison import samples_section, unequal_columns
 from hybridlog.report.gates import null_reason

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.jobs.overrides import parse_sets, prepare_estimators, set_reach
 from tests.cli.test_cli import run
 from tests.support.cpha import CPHA_EXAMPLE

@@ -20,9 +20,9 @@ from typing import Any
 
 import pytest
 
+import hybridlog.jobs.compare as compare_job
 from hybridlog.errors import LogError, OptionError
-from hybridlog.jobs import comparison
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.jobs.gate_checks import gates_for
 from hybridlog.jobs.overrides import Overrides, prepare_estimators
 from hybridlog.jobs.simulate import simulate_log
@@ -96,7 +96,7 @@ def test_a_log_without_the_switching_signal_is_refused_before_any_estimator_runs
     def ran(*args: Any, **kwargs: Any) -> Any:
         raise AssertionError("an estimator ran on a log compare refuses")
 
-    monkeypatch.setattr(comparison, "estimates", ran)
+    monkeypatch.setattr(compare_job, "estimates", ran)
     out = tmp_path / "cmp"
     with pytest.raises(
         LogError,
@@ -145,7 +145,7 @@ def test_a_gate_on_a_mode_metric_the_switching_signal_gives_is_refused_before_an
     def ran(*args: Any, **kwargs: Any) -> Any:
         raise AssertionError("an estimator ran under a gate that could never pass")
 
-    monkeypatch.setattr(comparison, "estimates", ran)
+    monkeypatch.setattr(compare_job, "estimates", ran)
     out = tmp_path / "cmp"
     flag = "--" + option.replace("_", "-")
     metric = gate.partition("=")[0]

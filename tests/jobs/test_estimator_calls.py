@@ -26,7 +26,7 @@ from tests.support.paths import TANK_CSV
 
 NOT_IN_THE_WORKER = (
     "hybridlog.jobs.analysis",
-    "hybridlog.jobs.comparison",
+    "hybridlog.jobs.compare",
     "hybridlog.jobs.estimation",
     "hybridlog.jobs.gate_checks",
     "hybridlog.jobs.overrides",

@@ -16,11 +16,12 @@ from typing import Any
 
 import pytest
 
+import hybridlog.jobs.compare as compare_job
 from hybridlog.errors import LogError
-from hybridlog.jobs import analysis, batch_task, comparison
+from hybridlog.jobs import analysis, batch_task
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.jobs.simulate import simulate_log
 from tests.estimators.test_cpha_commands import VALVE
 
@@ -62,7 +63,7 @@ def test_compare_refuses_before_the_estimators_named_first_run(
     no_command: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     model, log = no_command
-    monkeypatch.setattr(comparison, "estimates", _no_run)
+    monkeypatch.setattr(compare_job, "estimates", _no_run)
     out = tmp_path / "cmp"
     with pytest.raises(LogError) as raised:
         compare(log, model, ["imm", "unknown-mode"], out_dir=out)

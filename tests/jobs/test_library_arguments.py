@@ -17,7 +17,7 @@ from hybridlog.estimators.chiu import ChiuOptions
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.cluster import discover_modes
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.jobs.simulate import simulate_log
 from tests.support.paths import ROOT
 

@@ -13,7 +13,7 @@ from hybridlog.estimators import CHUNK_ROWS, prepare
 from hybridlog.estimators.footprint import REPORT_FACTOR, result_bytes
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.memory import check_fits
 from hybridlog.model.cache import load_model
 

@@ -10,7 +10,7 @@ from hybridlog.estimators.observer_options import ChiuOptions
 from hybridlog.estimators.registry import prepare
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.cluster import discover_modes
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.jobs.estimation import estimator_inputs
 from hybridlog.model.builtins import builtin_text as builtin_source
 from hybridlog.model.cache import load_model

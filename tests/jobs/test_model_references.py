@@ -5,7 +5,7 @@ import pytest
 from hybridlog.errors import ModelError, OptionError
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.jobs.simulate import simulate_log
 from tests.support.paths import SAMPLE_LOGS
 

@@ -17,7 +17,7 @@ from hybridlog.errors import OutputError
 from hybridlog.io.writers import write_table
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.outputs.folder_targets import check_outside_batch
 from tests.support.logfiles import tank_run
 

@@ -32,7 +32,7 @@ from hybridlog.jobs import cluster as cluster_job
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.cluster import discover_modes
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.model.builtins import builtin_text
 from hybridlog.outputs import (
     MARKER,

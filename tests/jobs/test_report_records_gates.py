@@ -12,7 +12,7 @@ import re
 from pathlib import Path
 
 from hybridlog.jobs.analysis import analyze
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.report import read_report, render_markdown
 from hybridlog.report.gates import GATES_KEY, gate_records, parse_gates
 from tests.support.paths import ROOT

@@ -16,7 +16,7 @@ import pytest
 from hybridlog.errors import HybridlogError, ModelError, OptionError
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.jobs.overrides import parse_sets
 from hybridlog.jobs.simulate import simulate_log
 from hybridlog.model.builtins import builtin_text

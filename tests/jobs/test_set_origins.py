@@ -17,7 +17,7 @@ import pytest
 from hybridlog.errors import OptionError
 from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.batch import run_batch
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.jobs.origins import run_values
 from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from tests.jobs.test_batch_resume import TANK, write_logs

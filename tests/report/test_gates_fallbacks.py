@@ -19,7 +19,7 @@ import pytest
 from hybridlog.errors import OptionError
 from hybridlog.estimators.result import Fallbacks
 from hybridlog.jobs.analysis import analyze
-from hybridlog.jobs.comparison import compare
+from hybridlog.jobs.compare import compare
 from hybridlog.jobs.gate_checks import gates_for
 from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.report.gates import (
