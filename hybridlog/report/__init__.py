@@ -3,8 +3,9 @@
 The entry point is :func:`write_report`, which returns the typed :class:`Report` (its
 :meth:`~Report.to_json` is ``report.json``; :func:`read_report` reads one back).  The pieces
 live in :mod:`.metrics`, :mod:`.build`, :mod:`.document`, :mod:`.markdown`, :mod:`.tables`,
-:mod:`.plots`, :mod:`.gates`, :mod:`.summary` and :mod:`.explained` (the outputs a smoothed
-run's estimates explain); output folders are written with
+:mod:`.plots`, :mod:`.gates` and :mod:`.summary`, each with the modules named in
+docs/architecture.md (the outputs a smoothed run's estimates explain are
+:mod:`hybridlog.estimators.explained`'s); output folders are written with
 :func:`hybridlog.outputs.atomic_output_dir`.  The names below are imported on first use
 (:mod:`hybridlog.lazy`), so importing the package loads no numpy or matplotlib.
 """
