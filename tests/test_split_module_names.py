@@ -2,7 +2,9 @@
 
 ``estimators/smoothing.py`` gave its kernels to ``smoother_kernels.py`` and its code writer to
 ``smoother_source.py``, ``report/metrics.py`` its mode metrics to ``mode_metrics.py``,
-``report/build.py`` its reading notes to ``reading_notes.py``, ``cli.py`` its parameter
+``report/build.py`` its reading notes to ``reading_notes.py`` and its mode scores, offline
+sides, null reasons, few-samples warning and model notes to modules of those names,
+``cli.py`` its parameter
 types, options, lines, progress bars and process handling to ``cli_*.py``, ``io/tables.py``
 its CSV checks and frames, Parquet files, time columns and column helpers, ``io/messages.py``
 its topics, topic reader, header stamps, ``inspect`` counts, message leaves and JSON helpers,
@@ -38,7 +40,17 @@ SPLITS = {
         "hybridlog.estimators.smoother_source",
     ),
     "hybridlog.report.metrics": ("hybridlog.report.mode_metrics",),
-    "hybridlog.report.build": ("hybridlog.report.reading_notes",),
+    "hybridlog.report.build": tuple(
+        f"hybridlog.report.{name}"
+        for name in (
+            "reading_notes",
+            "mode_scores",
+            "offline_sides",
+            "null_reasons",
+            "few_samples",
+            "model_notes",
+        )
+    ),
     "hybridlog.cli": tuple(
         f"hybridlog.cli_{part}" for part in ("types", "options", "lines", "progress", "process")
     ),

@@ -62,8 +62,8 @@ from hybridlog.outputs import (
     check_file_name,
     check_file_target,
 )
-from hybridlog.report.build import FEW_SAMPLES
 from hybridlog.report.coverage import samples_coverage
+from hybridlog.report.few_samples import FEW_SAMPLES
 from hybridlog.report.markdown import WARNING_PREFIX, plural
 from hybridlog.report.reading_notes import (
     bridged_cause,
@@ -198,7 +198,7 @@ def few_vectors_warning(vectors: int, scored: int | None) -> str | None:
 
     ``vectors``: the regression vectors the centres were fitted on; ``scored``: the samples
     the mode accuracy of the decision rule is over (``None``: no accuracy).  ``analyze``
-    warns of metrics over fewer than :data:`~hybridlog.report.build.FEW_SAMPLES` samples;
+    warns of metrics over fewer than :data:`~hybridlog.report.few_samples.FEW_SAMPLES` samples;
     ``cluster`` fitted centres on 2 vectors of a 3-row log and printed their accuracy,
     0.3333 over those 3 samples, without a word, and wrote them for ``analyze`` to use.
     """

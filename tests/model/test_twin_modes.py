@@ -166,11 +166,11 @@ equations = ["x2[k] = k2*x2[k-1]", "y2 = x2"]  # another parameter of the same v
 def test_a_components_models_twin_modes_are_found_and_said() -> None:
     # Two modes of one component that no log can tell apart were said nowhere: the
     # component's mode accuracy counted the samples of the one not picked as errors.
-    from hybridlog.report.build import _model_notes
+    from hybridlog.report.model_notes import model_notes
 
     model = parse_model(COMPONENTS)
     assert model.component_twin_modes == (("a", ("on", "on_too")), ("b", ("one", "two")))
-    notes = [n for n in _model_notes(model) if "no log can tell them apart" in n]
+    notes = [n for n in model_notes(model) if "no log can tell them apart" in n]
     assert len(notes) == 2
     assert notes[0].startswith("NOTE: component 'a': modes 'on' and 'on_too' have the same")
     assert "detection delays of component 'a' count" in notes[0]

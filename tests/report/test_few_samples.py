@@ -18,7 +18,7 @@ from hybridlog.estimators.registry import prepare
 from hybridlog.io import SignalSpec, load_signals
 from hybridlog.model.loader import load_model
 from hybridlog.report import build_report, render_markdown
-from hybridlog.report.build import FEW_SAMPLES
+from hybridlog.report.few_samples import FEW_SAMPLES
 from hybridlog.report.markdown import WARNING_PREFIX
 from tests.support.cpha import cpha_truth_log
 
