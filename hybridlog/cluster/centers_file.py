@@ -59,7 +59,7 @@ from typing import Any
 
 import numpy as np
 
-from hybridlog.errors import OptionError, excerpt
+from hybridlog.errors import OptionError, excerpt, printable, shortened
 from hybridlog.signals import FloatArray
 
 __all__ = [
@@ -504,15 +504,34 @@ def _warnings(notes: Any) -> tuple[str, ...]:
     The other notes describe the log the centres were fitted on and are not read back; a
     warning is about the centres themselves (fitted on 2 regression vectors of a 3-row log),
     and ``analyze --set centers=FILE`` said only "2 centres loaded from FILE".
+
+    The file may be written by hand: each warning is repeated on one printable line of at
+    most :data:`_WARNING_LIMIT` characters, and the first :data:`_WARNINGS_REPEATED` of them
+    only, the others counted (a note of 200,000 characters, or 5,000 warnings, were repeated
+    whole into the report's notes and report.md).
     """
     if not isinstance(notes, list):
         return ()
     prefix = "WARNING: "
-    return tuple(
+    found = [
         note.removeprefix(prefix)
         for note in notes
-        if isinstance(note, str) and note.startswith(prefix)
+        if isinstance(note, str) and note.startswith(prefix) and note[len(prefix) :].strip()
+    ]
+    repeated = tuple(
+        shortened(printable(" ".join(note.split())), _WARNING_LIMIT)
+        for note in found[:_WARNINGS_REPEATED]
     )
+    rest = len(found) - len(repeated)
+    more = f"{rest:,} more warning{'s' if rest > 1 else ''} in its notes"
+    return (*repeated, more) if rest else repeated
+
+
+_WARNING_LIMIT = 300
+"""The most characters of a file's warning an ``analyze`` repeats (cluster's own: ~220)."""
+
+_WARNINGS_REPEATED = 3
+"""The most warnings of one file's notes an ``analyze`` repeats (cluster writes one)."""
 
 
 def _float(value: float) -> float:

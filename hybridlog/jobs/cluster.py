@@ -261,15 +261,20 @@ def _centre_texts(centers: FloatArray) -> list[list[str]]:
     ``1e+12, 1e+12, 0.7454`` and ``1e+12, 1e+12, -0.762``: different centres, alike in
     every output.  A column whose distinct values print alike gets the digits that tell
     them apart (up to the 17 of a float), as the gates' messages do.
+
+    Told apart as values, not as floats: ``0.0`` and ``-0.0`` are one value, as every ``nan``
+    is (a set of ``column.tolist()`` counted each ``nan`` apart, and a ``-0`` beside a ``0``
+    printed apart: either gave every centre of that column 17 digits,
+    ``0.33333333333333331``).
     """
     columns = []
     for column in np.asarray(centers, dtype=np.float64).T:
-        distinct = len(set(column.tolist()))
+        values = (column + 0.0).tolist()  # -0.0 + 0.0 is 0.0
+        distinct = np.unique(values).size  # one nan
         for digits in range(4, 18):
-            shown = [f"{v:.{digits}g}" for v in column]
-            if len(set(shown)) == distinct:
+            if len({f"{v:.{digits}g}" for v in values}) == distinct:
                 break
-        columns.append(shown)
+        columns.append([f"{v:.{digits}g}" for v in column])
     return [list(row) for row in zip(*columns, strict=True)] if columns else []
 
 

@@ -349,6 +349,26 @@ def expression_text(value: Any) -> Any:
     return str(value) if isinstance(value, int | float) and not isinstance(value, bool) else value
 
 
+def line_break_hint(text: str) -> str:
+    r"""The hint for an expression that does not parse because of its line breaks, or ``""``.
+
+    A TOML multi-line string keeps its line breaks, which end a Python expression outside
+    parentheses: ``'a*x\n + u'`` was only "unexpected indent".  Said only where the text
+    parses with its line breaks as spaces: ``'(x\n - 0.3'`` (``'(' was never closed``) or
+    ``'x -\n * 0.3'`` were told to wrap what is wrapped, or a line break that is no cause.
+    """
+    if "\n" not in text.strip() and "\r" not in text.strip():
+        return ""
+    try:
+        ast.parse(" ".join(text.splitlines()).strip(), mode="eval")
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        return ""
+    return (
+        "; a line break ends an expression outside parentheses: wrap it in ( ), or end "
+        "each line with \\ in a TOML multi-line string"
+    )
+
+
 def parse_expression(
     text: str,
     symbols: Mapping[str, sympy.Expr],
@@ -390,15 +410,9 @@ def parse_expression(
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as err:
-        # A TOML multi-line string keeps its line breaks, which end a Python expression
-        # outside parentheses: 'a*x\n + u' was only "unexpected indent".
-        broken = (
-            "; a line break ends an expression outside parentheses: wrap it in ( ), or end "
-            "each line with \\ in a TOML multi-line string"
-            if "\n" in text.strip()
-            else ""
-        )
-        raise ModelError(f"{key}: cannot parse {excerpt(text)}: {err.msg}{broken}") from err
+        raise ModelError(
+            f"{key}: cannot parse {excerpt(text)}: {err.msg}{line_break_hint(text)}"
+        ) from err
     except ValueError as err:  # e.g. NUL bytes, on Python versions that raise it
         raise ModelError(f"{key}: cannot parse {excerpt(text)}: {_unquoted(err, 80)}") from err
     except (RecursionError, MemoryError) as err:

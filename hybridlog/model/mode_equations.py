@@ -20,7 +20,7 @@ from sympy.core.function import Application
 
 from hybridlog.errors import ModelError, excerpt
 from hybridlog.model.derivatives import boolean_affine_problem
-from hybridlog.model.expressions import parse_expression
+from hybridlog.model.expressions import line_break_hint, parse_expression
 from hybridlog.model.hybrid_model import LinearForm, Mode
 from hybridlog.model.values import as_number, as_string, key_path
 from hybridlog.signals import FloatArray
@@ -128,7 +128,9 @@ def mode_guard(
     try:
         tree = ast.parse(text, mode="eval")
     except SyntaxError as err:
-        raise ModelError(f"{key}: cannot parse {excerpt(text)}: {err.msg}") from err
+        raise ModelError(
+            f"{key}: cannot parse {excerpt(text)}: {err.msg}{line_break_hint(text)}"
+        ) from err
     except (RecursionError, MemoryError, ValueError) as err:
         raise ModelError(f"{key}: cannot parse {excerpt(text)}") from err
     if not isinstance(tree.body, ast.Compare):

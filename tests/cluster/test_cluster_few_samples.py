@@ -69,3 +69,33 @@ def test_analyze_by_such_centres_repeats_the_warning(tmp_path):
         "the decision rule over 3 samples: fewer than 30, they describe these samples, not "
         "the plant's modes; fit the clusters on a log that gives at least 30 regression vectors"
     )
+
+
+def test_a_hand_written_files_warnings_are_repeated_bounded():
+    """A centres file is JSON anyone may write: a warning of 200,000 characters, or 5,000
+    of them, were repeated whole into the report's notes (and report.md), line breaks kept.
+    Each is one printable line of at most 300 characters now, the first 3 only, the others
+    counted; an empty one, or a notes that is no list, says none."""
+    from hybridlog.cluster.centers_file import centers_json, parse_centers
+
+    def warned(notes: object) -> tuple[str, ...]:
+        table = {"centers": [[4.0], [0.0]], "notes": notes}
+        stored = {
+            "mode_ids": ["a", "b"],
+            "regressors": ["y(k)"],
+            "output_lags": [0],
+            "input_lags": [],
+            "scaling": {"lower": [-0.5], "upper": [4.5]},
+            "chiu": table,
+        }
+        return parse_centers(centers_json(stored), "mem.json").clusters["chiu"].warnings
+
+    (huge,) = warned(["WARNING: " + "x" * 200_000])
+    assert len(huge) <= 300 and "…" in huge
+    assert warned(["WARNING: two\nlines\x1b[31m", "WARNING: ", "WARNING:x", "notes"]) == (
+        "two lines\\x1b[31m",
+    )
+    many = warned([f"WARNING: number {i}" for i in range(5000)])
+    assert many == ("number 0", "number 1", "number 2", "4,997 more warnings in its notes")
+    assert warned([f"WARNING: number {i}" for i in range(4)])[-1] == "1 more warning in its notes"
+    assert warned({"a": "WARNING: x"}) == ()

@@ -60,6 +60,25 @@ def test_an_expression_written_as_elsewhere_says_what_to_write(text, said):
         parse_expression(text, X, key="modes.a.f[0]")
 
 
+@pytest.mark.parametrize("text", ["(0.9*x\n + u", "(0.9*x\n + * u)", "0.9*x +\n * u"])
+def test_a_line_break_that_is_no_cause_gets_no_hint(text):
+    """The hint came with every text holding a line break: '(0.9*x\\n + u' ("'(' was never
+    closed") was told to wrap in ( ) what is wrapped; now only a text that parses with its
+    line breaks as spaces gets it."""
+    with pytest.raises(ModelError, match=r"^k: cannot parse ") as raised:
+        parse_expression(text, X, key="k")
+    assert "line break" not in str(raised.value)
+
+
+def test_a_guard_broken_over_lines_gets_the_hint():
+    """A guard is parsed apart from the other expressions, and said only "unexpected
+    indent" for 'x\\n > 0' in a TOML multi-line string."""
+    from hybridlog.model.mode_equations import mode_guard
+
+    with pytest.raises(ModelError, match=r"^k: cannot parse 'x\\n > 0': unexpected indent; a "):
+        mode_guard("x\n > 0", "k", X, {"x", "u"})
+
+
 def test_a_line_break_inside_parentheses_still_parses():
     written = parse_expression("(0.9*x\n + u)", X, key="k")
     assert written == parse_expression("0.9*x + u", X, key="k")
