@@ -135,8 +135,14 @@ def mode_guard(
         raise ModelError(f"{key}: cannot parse {excerpt(text)}") from err
     if not isinstance(tree.body, ast.Compare):
         raise ModelError(f"{key}: expected a comparison such as 'x3 <= 0', got {excerpt(text)}")
-    # The expression grammar returns values; a Piecewise carries the condition through it.
-    wrapped = parse_expression(f"Piecewise(1, {text}, 0)", env, key=key)
+    # The expression grammar returns values; a Piecewise carries the condition through it,
+    # which the user did not write: an error quoting the whole expression quotes the guard
+    wrapper = f"Piecewise(1, {text}, 0)"
+    try:
+        wrapped = parse_expression(wrapper, env, key=key)
+    except ModelError as err:
+        said = str(err).replace(excerpt(wrapper), excerpt(text))
+        raise ModelError(said) from err
     if not isinstance(wrapped, sympy.Piecewise):  # sympy decided the comparison: 1 or 0
         always = "always holds" if wrapped == 1 else "never holds"
         raise ModelError(

@@ -397,6 +397,22 @@ def test_a_guard_sympy_decides_says_which_way(guard, verdict):
         parse_model(text, origin="guarded.toml")
 
 
+@pytest.mark.parametrize(
+    ("guard", "said"),
+    [
+        ("x*1e308*10 > 1", r"'x\*1e308\*10 > 1' is not finite in double precision"),
+        ("x/0 > 1", r"'x/0 > 1' is not finite \(a division by zero\?\)"),
+    ],
+)
+def test_a_guard_refused_as_not_finite_is_quoted_as_written(guard, said):
+    """The guard is parsed as ``Piecewise(1, guard, 0)``, and the refusal quoted that
+    wrapper, which the user never wrote (found by review58)."""
+    text = GUARDED.replace('guard = "x > 0"', f'guard = "{guard}"')
+    with pytest.raises(ModelError, match=rf"^guarded\.toml: modes\.down\.guard: {said}") as err:
+        parse_model(text, origin="guarded.toml")
+    assert "Piecewise" not in str(err.value)
+
+
 def test_a_guard_outside_its_domain_does_not_hold_and_is_named_where_none_does():
     # sqrt(x) > 0 at x = -0.1 compares a NaN: it does not hold (in the reals sqrt(-0.1) is
     # not above 0), and the next guard (x < 1) takes the sample, as before
