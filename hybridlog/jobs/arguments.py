@@ -35,6 +35,7 @@ __all__ = [
     "path",
     "paths",
     "read_options",
+    "set_texts",
     "text",
     "texts",
 ]
@@ -191,6 +192,24 @@ def callback(value: object, parameter: str) -> None:
     """Refuse ``value`` unless it is ``None`` or callable (checked before any work)."""
     if not (value is None or callable(value)):
         raise _refuse(parameter, "a callable or None", value)
+
+
+def set_texts(values: Sequence[str]) -> dict[str, str]:
+    """``--set NAME=VALUE`` texts → ``{name: value as typed}``, each named in its error.
+
+    One reading for ``analyze``, ``compare``, ``batch``
+    (:func:`~hybridlog.jobs.overrides.parse_sets`) and ``simulate``, which each kept a copy.
+    """
+    found: dict[str, str] = {}
+    for given in values:
+        name, sep, value = given.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise OptionError(f"--set: {excerpt(given)} is not NAME=VALUE")
+        if name in found:
+            raise OptionError(f"--set {excerpt(name)[1:-1]}: given twice")
+        found[name] = value
+    return found
 
 
 def read_options(value: object) -> ReadOptions:

@@ -25,6 +25,7 @@ from hybridlog.estimators import (
     resolve_estimator,
 )
 from hybridlog.estimators.options import closest
+from hybridlog.jobs.arguments import set_texts
 from hybridlog.model.cache import load_model, load_model_set
 from hybridlog.model.hybrid_model import HybridModel
 
@@ -55,17 +56,8 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
     model = load_model(model_ref)
     texts: dict[str, str] = {}
     options: dict[str, str] = {}
-    for text in values:
-        name, sep, value = text.partition("=")
-        name = name.strip()
-        if not sep or not name:
-            raise OptionError(f"--set: {excerpt(text)} is not NAME=VALUE")
-        if name in texts or name in options:
-            raise OptionError(f"--set {excerpt(name)[1:-1]}: given twice")
-        if name in model.parameters:
-            texts[name] = value.strip()
-        else:
-            options[name] = value.strip()
+    for name, value in set_texts(values).items():
+        (texts if name in model.parameters else options)[name] = value.strip()
     if texts:
         model = load_model_set(model_ref, texts)
         from hybridlog.model.reads import refuse_unread_by_analysis

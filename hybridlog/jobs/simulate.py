@@ -121,7 +121,7 @@ def simulate_log(
     inputs: list[tuple[str, PathLike]] = (
         [("model file", model_ref)] if Path(model_ref).is_file() else []
     )
-    texts = _setting_texts(settings)
+    texts = arguments.set_texts(settings)
     moved = {name: text for name, text in texts.items() if name in model.parameters}
     if moved:  # the plant simulated with other [parameters] values
         model = load_model_set(model_ref, moved)
@@ -274,20 +274,6 @@ def log_columns(model: HybridModel) -> tuple[tuple[str, ...], tuple[str, ...]]:
         return (*model.inputs, *model.outputs, *model.commands, *truth), truth
     truth = ("mode", *model.states)
     return (*model.inputs, *model.outputs, *truth), truth
-
-
-def _setting_texts(texts: Sequence[str]) -> dict[str, str]:
-    """``--set NAME=VALUE`` texts → ``{name: value text}``, each named in its error."""
-    values: dict[str, str] = {}
-    for text in texts:
-        name, sep, value = text.partition("=")
-        name = name.strip()
-        if not sep or not name:
-            raise OptionError(f"--set: {excerpt(text)} is not NAME=VALUE")
-        if name in values:
-            raise OptionError(f"--set {excerpt(name)[1:-1]}: given twice")
-        values[name] = value
-    return values
 
 
 def _scenario_values(texts: Mapping[str, str]) -> dict[str, float]:
