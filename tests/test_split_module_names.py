@@ -1,7 +1,9 @@
 """Docs and docstrings name a function of a split module where it now is.
 
 ``estimators/smoothing.py`` gave its kernels to ``smoother_kernels.py`` and its code writer to
-``smoother_source.py``, ``report/metrics.py`` its mode metrics to ``mode_metrics.py``,
+``smoother_source.py``, ``report/metrics.py`` its mode metrics to ``mode_metrics.py`` and
+its state RMSE, blocks of rows, scaled sums and error powers to ``state_error.py``,
+``row_blocks.py``, ``scaled_sums.py`` and ``error_power.py``,
 ``report/build.py`` its reading notes to ``reading_notes.py`` and its mode scores, offline
 sides, null reasons, few-samples warning and model notes to modules of those names,
 ``cli.py`` its parameter
@@ -39,7 +41,10 @@ SPLITS = {
         "hybridlog.estimators.smoother_kernels",
         "hybridlog.estimators.smoother_source",
     ),
-    "hybridlog.report.metrics": ("hybridlog.report.mode_metrics",),
+    "hybridlog.report.metrics": tuple(
+        f"hybridlog.report.{name}"
+        for name in ("mode_metrics", "state_error", "row_blocks", "scaled_sums", "error_power")
+    ),
     "hybridlog.report.build": tuple(
         f"hybridlog.report.{name}"
         for name in (

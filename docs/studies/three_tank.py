@@ -41,7 +41,7 @@ from hybridlog.estimators.result import EstimationResult
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model
-from hybridlog.report import metrics, mode_metrics
+from hybridlog.report import metrics, mode_metrics, state_error
 from hybridlog.signals import AlignedSignals
 from hybridlog.simulate import SimulatedLog, simulate
 
@@ -82,7 +82,7 @@ def run_metrics(model: HybridModel, log: SimulatedLog, r: EstimationResult) -> d
             np.argmax(r.mode_probabilities[1:], axis=1), truth[1:]
         ),
     }
-    rmse = metrics.state_rmse(r.state_means[K0:], log.states[K0:])
+    rmse = state_error.state_rmse(r.state_means[K0:], log.states[K0:])
     for name, value in zip(model.states, rmse, strict=True):
         out[f"RMSE {name} k>={K0}"] = float(value)
     out["VAF % (mean of y)"] = metrics.mean_where_defined(

@@ -1,7 +1,8 @@
 """Compute the :class:`~hybridlog.report.document.Report` of one run from its result and log.
 
-Every metric comes from :mod:`hybridlog.report.metrics`; this module assembles them into the
-typed report and turns numbers that are not finite into ``None``.  Its parts: the mode part
+Every metric comes from :mod:`hybridlog.report.metrics` and
+:mod:`hybridlog.report.state_error`; this module assembles them into the typed report and
+turns numbers that are not finite into ``None``.  Its parts: the mode part
 :mod:`hybridlog.report.mode_scores`, the ``smoothing`` part
 :mod:`hybridlog.report.offline_sides`, why each gate metric that is ``None`` is undefined
 :mod:`hybridlog.report.null_reasons`, and the notes: the model's
@@ -23,7 +24,7 @@ from hybridlog import __version__
 from hybridlog.errors import LogError
 from hybridlog.estimators.consistency import ConsistencyAccumulator
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.report import metrics
+from hybridlog.report import metrics, state_error
 from hybridlog.report.document import Report
 from hybridlog.report.few_samples import few_samples_warning
 from hybridlog.report.markdown import plural
@@ -157,7 +158,7 @@ class ReportBuilder:
     overwrites (:meth:`hybridlog.estimators.Prepared.stream`): each :meth:`add` takes what
     the report needs of a chunk and keeps none of its arrays.  The output and state metrics
     are accumulated (:class:`~hybridlog.report.metrics.OutputAccumulator`,
-    :class:`~hybridlog.report.metrics.StateAccumulator`: the same numbers however the rows
+    :class:`~hybridlog.report.state_error.StateAccumulator`: the same numbers however the rows
     were split); the estimated modes, one index a sample (8 bytes, where the whole result
     holds about a hundred), are kept for the mode metrics, which follow switches across the
     run.  A result with an offline pass (``post_processing``) also gets the ``smoothing``
@@ -205,7 +206,7 @@ class ReportBuilder:
         self._rows = 0
         self._modes: IntArray = np.empty(n, dtype=np.int64)
         self._outputs = metrics.OutputAccumulator(len(signals.output_names))
-        self._states: metrics.StateAccumulator | None = None
+        self._states: state_error.StateAccumulator | None = None
         # per state, the samples with a true value the estimator did not estimate it on
         self._held: IntArray = np.zeros(0, dtype=np.int64)
         self._first: EstimationResult | None = None
@@ -241,7 +242,7 @@ class ReportBuilder:
         if self._first is None:
             self._first = chunk
             if part.truth_states is not None:
-                self._states = metrics.StateAccumulator(len(chunk.state_names))
+                self._states = state_error.StateAccumulator(len(chunk.state_names))
                 self._held = np.zeros(len(chunk.state_names), dtype=np.int64)
             if chunk.post_processing is not None:
                 self._offline = OfflineSides(chunk, self._signals, self._model)

@@ -63,7 +63,7 @@ def null_reasons(
     """Why each gate metric that is ``None`` in the report is (keys as in the gates).
 
     ``state_reasons``: why a state's RMSE over some rows is not a number
-    (:meth:`~hybridlog.report.metrics.StateAccumulator.undefined`); ``held``: per state, the
+    (:meth:`~hybridlog.report.state_error.StateAccumulator.undefined`); ``held``: per state, the
     samples with a true value where the estimator did not estimate it
     (:attr:`~hybridlog.estimators.result.EstimationResult.states_not_estimated`).
     """

@@ -15,7 +15,7 @@ import numpy as np
 
 from hybridlog.estimators.explained import explained_outputs
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.report import metrics, mode_metrics
+from hybridlog.report import metrics, mode_metrics, state_error
 from hybridlog.report.mode_scores import ComponentModes, finite_or_none, where_known
 from hybridlog.report.report_parts import (
     ComponentSide,
@@ -47,7 +47,7 @@ def output_mean(per_output: Iterable[metrics.OutputMetrics], name: str) -> float
 
 
 def state_reports(
-    names: tuple[str, ...], accumulator: metrics.StateAccumulator | None
+    names: tuple[str, ...], accumulator: state_error.StateAccumulator | None
 ) -> dict[str, StateReport]:
     """Each state's RMSE and the rows it is over (``accumulator``: ``None`` without truth)."""
     if accumulator is None:
@@ -165,7 +165,7 @@ class OfflineSides:
         self._filtered_states = (
             None
             if signals.truth_states is None
-            else metrics.StateAccumulator(len(first.state_names))
+            else state_error.StateAccumulator(len(first.state_names))
         )
         n_y = len(first.output_names)
         self._explained: list[metrics.OutputAccumulator | None] = [

@@ -24,8 +24,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from hybridlog.report import metrics
-from hybridlog.report.metrics import OutputAccumulator, OutputMetrics, StateAccumulator
+from hybridlog.report import metrics, row_blocks, state_error
+from hybridlog.report.metrics import OutputAccumulator, OutputMetrics
+from hybridlog.report.state_error import StateAccumulator
 
 NAN = float("nan")
 EPS = float(np.finfo(np.float64).eps)
@@ -392,7 +393,7 @@ def test_one_block_has_the_bits_of_the_whole_column_code(
         got = getattr(metrics, name)(y, y_hat)
         assert _identical_arrays(got, np.array([getattr(e, name) for e in expected]), near=True)
     rmse = _reference_state_rmse(y_hat, y)
-    assert _identical_arrays(metrics.state_rmse(y_hat, y), rmse, near=True)
+    assert _identical_arrays(state_error.state_rmse(y_hat, y), rmse, near=True)
     assert _identical_arrays(_accumulated_rmse(y_hat, y, cuts), rmse, near=True)
 
 
@@ -425,9 +426,9 @@ def test_every_split_of_the_rows_gives_the_same_bits(
 ) -> None:
     # Small blocks, so that a few rows make many blocks, merged along the tree.
     y, y_hat = run
-    with mock.patch.object(metrics, "_BLOCK_ROWS", block):
+    with mock.patch.object(row_blocks, "_BLOCK_ROWS", block):
         whole = metrics.output_metrics(y, y_hat)
-        rmse = metrics.state_rmse(y_hat, y)
+        rmse = state_error.state_rmse(y_hat, y)
         for cuts in splits:
             assert _identical(_accumulated(y, y_hat, cuts), whole)
             assert _identical_arrays(_accumulated_rmse(y_hat, y, cuts), rmse)
@@ -543,10 +544,12 @@ def test_a_longer_run_agrees_with_the_whole_column_code_whatever_its_chunks() ->
         [0, 0, y.shape[0]],
     ):
         assert _identical(_accumulated(y, y_hat, cuts), whole)
-        assert _identical_arrays(_accumulated_rmse(y_hat, y, cuts), metrics.state_rmse(y_hat, y))
+        assert _identical_arrays(
+            _accumulated_rmse(y_hat, y, cuts), state_error.state_rmse(y_hat, y)
+        )
     with np.errstate(over="ignore"):
         np.testing.assert_allclose(
-            metrics.state_rmse(y_hat, y), _reference_state_rmse(y_hat, y), rtol=1e-12
+            state_error.state_rmse(y_hat, y), _reference_state_rmse(y_hat, y), rtol=1e-12
         )
 
 
@@ -576,7 +579,7 @@ def test_small_blocks_agree_with_the_whole_column_code(
 ) -> None:
     y, y_hat = run
     expected = _reference_output_metrics(y, y_hat)
-    with mock.patch.object(metrics, "_BLOCK_ROWS", block):
+    with mock.patch.object(row_blocks, "_BLOCK_ROWS", block):
         got = metrics.output_metrics(y, y_hat)
     for j in range(y.shape[1]):
         _assert_close(got[j], expected[j], y[:, j], y_hat[:, j])
@@ -656,7 +659,10 @@ def test_whole_arrays_are_reduced_with_temporaries_of_a_block() -> None:
         y = rng.normal(size=(n, 3))
         y_hat = y + rng.normal(size=(n, 3))
         y_hat[::5, 1] = NAN
-        peaks[n] = (_peak(metrics.output_metrics, y, y_hat), _peak(metrics.state_rmse, y_hat, y))
+        peaks[n] = (
+            _peak(metrics.output_metrics, y, y_hat),
+            _peak(state_error.state_rmse, y_hat, y),
+        )
         # The scratch of four blocks (2 MiB), whatever the rows: 2.2 MiB each at 10^6 rows
         # and three columns, where the code before streaming took 31 and 24 MiB.
         assert peaks[n][0] < 5 * block and peaks[n][1] < 5 * block

@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from hybridlog.report import build_report, metrics
+from hybridlog.report import build_report, metrics, state_error
 
 from .test_report_files import DT, make_run
 
@@ -71,8 +71,8 @@ def test_vaf_and_fit_do_not_depend_on_the_unit_and_mse_scales_with_its_square(
 def test_state_rmse_scales_with_the_unit(run: tuple[np.ndarray, np.ndarray], k: int) -> None:
     truth, estimate = run
     scale = 10.0**k
-    plain = metrics.state_rmse(estimate, truth)
-    scaled = metrics.state_rmse(estimate * scale, truth * scale)
+    plain = state_error.state_rmse(estimate, truth)
+    scaled = state_error.state_rmse(estimate * scale, truth * scale)
     for p, s in zip(plain, scaled, strict=True):
         if p == 0.0:
             assert s == 0.0

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from hybridlog.report import Report, build_report, metrics, mode_metrics
+from hybridlog.report import Report, build_report, metrics, mode_metrics, state_error
 from hybridlog.report.markdown import render_markdown
 from hybridlog.times import format_time
 
@@ -484,7 +484,7 @@ def test_accuracy_is_the_confusion_diagonal(truth: np.ndarray, data: st.DataObje
 def test_state_rmse_by_hand() -> None:
     x_hat = np.array([[1.0, 0.0, 5.0], [2.0, 0.0, 5.0], [3.0, 0.0, 5.0]])
     x_true = np.array([[1.0, NAN, 2.0], [4.0, NAN, NAN], [3.0, NAN, 1.0]])
-    rmse = metrics.state_rmse(x_hat, x_true)
+    rmse = state_error.state_rmse(x_hat, x_true)
     assert rmse[0] == pytest.approx(math.sqrt(4.0 / 3.0))
     assert math.isnan(rmse[1])  # no truth for this state
     assert rmse[2] == pytest.approx(math.sqrt((9.0 + 16.0) / 2.0))  # NaN rows ignored
@@ -632,7 +632,7 @@ def test_output_metrics_hold_one_column_at_a_time() -> None:
     y_hat[0] = NAN
     column = 8 * n
     assert _traced_peak(metrics.output_metrics, y, y_hat) < 5 * column
-    assert _traced_peak(metrics.state_rmse, y_hat, y) < 5 * column
+    assert _traced_peak(state_error.state_rmse, y_hat, y) < 5 * column
 
 
 def test_detection_delays_make_no_per_sample_python_objects() -> None:
