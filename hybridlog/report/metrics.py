@@ -1,18 +1,17 @@
 """Quality metrics of one estimation run: output fit (MSE, VAF, fit).
 
-Pure functions over NumPy arrays, and an accumulator of the output metrics for a run
-whose rows come in chunks; they never warn, print or touch files.  A metric that
-cannot be computed (no usable sample, no ground truth, a zero denominator, an infinite
-prediction) is NaN or infinite here and ``null`` in ``report.json``, with the reason from
-:func:`output_metrics`; so is one whose value float64 cannot hold (MSE of errors of 1e200
-or 1e-300), the reason saying so.  The errors are scaled before they are squared where
-their squares would leave float64's range, so no metric depends on the units of the
-signals: VAF and fit not at all, MSE and RMSE as the square and the unit.  The mode
+Pure functions over NumPy arrays, and an accumulator of the output metrics for a run whose rows
+come in chunks; they never warn, print or touch files. A metric that cannot be computed (no
+usable sample, a zero denominator, an infinite prediction) is NaN or infinite here and ``null``
+in ``report.json``, with the reason from :func:`output_metrics`; so is one whose value float64
+cannot hold (MSE of errors of 1e200 or 1e-300), the reason saying so. The errors are scaled
+before they are squared where their squares would leave float64's range, so no metric depends
+on the units of the signals: VAF and fit not at all, MSE as the square of the unit. The mode
 metrics (accuracy, switches, dwell times, detection delays) are
-:mod:`hybridlog.report.mode_metrics`, the state RMSE :mod:`hybridlog.report.state_error`;
-the blocks of rows (:mod:`~hybridlog.report.row_blocks`), scaled sums and spreads
-(:mod:`~hybridlog.report.scaled_sums`) and error powers
-(:mod:`~hybridlog.report.error_power`) they are computed from have modules of their own.
+:mod:`hybridlog.report.mode_metrics`, the state RMSE :mod:`hybridlog.report.state_error`; the
+blocks of rows (:mod:`~hybridlog.report.row_blocks`), scaled sums and spreads
+(:mod:`~hybridlog.report.scaled_sums`) and error powers (:mod:`~hybridlog.report.error_power`)
+they are computed from have modules of their own.
 
 References
 ----------
