@@ -191,14 +191,9 @@ def simulate_components(
         every variable, an algebraic loop through the controller, a diverging run, or a
         measured output without a measurement noise covariance in the model file.
     """
-    from hybridlog.simulate import (
-        check_run,
-        check_seed,
-        out_of_range,
-        sample_times,
-        start_state,
-        within_range,
-    )
+    from hybridlog.simulation_inputs import sample_times, start_state
+    from hybridlog.simulation_limits import check_run, check_seed
+    from hybridlog.simulation_range import out_of_range, within_range
 
     seed = check_seed(seed)
     origin = _origin(model)
@@ -347,7 +342,7 @@ def _cut_events(
 
     ``bioplex_pgc --steps 500`` wrote a run without its drift (from step 700) or its light
     fault (900), without a word: a user who asked for the scenario took it for one.  As for
-    a plain model's schedule (:func:`hybridlog.simulate.cut_schedule`), what is noted is
+    a plain model's schedule (:func:`hybridlog.simulation_schedule.cut_schedule`), what is noted is
     what never runs: a component's scheduled mode it never takes, a behaviour that never
     starts (a repair back to a mode the run already had is no news).
     """
@@ -450,7 +445,7 @@ def _overrides(
 
 def _open_loop_inputs(model: HybridModel, scenario: Scenario, time: FloatArray) -> FloatArray:
     """``u(k)`` of the inputs ``[simulation.inputs]`` gives; the controller fills the rest."""
-    from hybridlog.simulate import input_hint, input_signal
+    from hybridlog.simulation_inputs import input_hint, input_signal
 
     functions = input_functions(model)
     inputs = np.zeros((time.shape[0], model.n_inputs))

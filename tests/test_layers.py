@@ -6,9 +6,9 @@ Every module of ``hybridlog/`` is parsed with :mod:`ast` (nothing is imported); 
 ``TYPE_CHECKING`` alike, and so does a string naming a hybridlog module (the estimator
 registry imports its modules by name).  Each module belongs to a *unit*: a subpackage
 (``hybridlog/io/...`` is ``io``) or a top-level module (``hybridlog/jit.py`` is ``jit``;
-``simulate`` and ``simulation_kernels`` form the unit ``simulation``).  Units sit in layers,
-lowest first; a unit may import its own modules and units of lower layers only, so units of
-one layer are peers that never import each other:
+``simulate``, ``simulate_components`` and the ``simulation_*`` modules form the unit
+``simulation``).  Units sit in layers, lowest first; a unit may import its own modules and
+units of lower layers only, so units of one layer are peers that never import each other:
 
 ==  ==============================================================================
 0   ``hybridlog`` (its version) | ``errors`` | ``lazy`` | ``background`` | ``allocators``
@@ -77,6 +77,11 @@ UNIT_OF_MODULE = {
     "hybridlog.simulate": "simulation",
     "hybridlog.simulation_kernels": "simulation",
     "hybridlog.simulate_components": "simulation",
+    "hybridlog.simulation_inputs": "simulation",
+    "hybridlog.simulation_range": "simulation",
+    "hybridlog.simulation_domains": "simulation",
+    "hybridlog.simulation_limits": "simulation",
+    "hybridlog.simulation_schedule": "simulation",
     "hybridlog.__main__": "cli",
     "hybridlog.launch": "cli",
     "hybridlog.fitted_lines": "cli",

@@ -17,8 +17,8 @@ folder names, job, task of a log, batch folder, plan and summaries, ``model/load
 file keys, log fields, mode equations and mode switching, ``report/document.py`` its JSON
 values, the report's parts and its reader, ``report/plots.py`` its figures made ahead,
 curves, labels, legends, time axis and ``modes.png``, ``jobs/analysis.py`` its ``--set``
-overrides, gate checks, estimation steps and ``compare`` to modules of their own: after the
-splits,
+overrides, gate checks, estimation steps and ``compare``, ``simulate.py`` its inputs, range
+checks, domain checks, run limits and schedule to modules of their own: after the splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -142,6 +142,10 @@ SPLITS = {
     ),
     "hybridlog.jobs.analysis": tuple(
         f"hybridlog.jobs.{name}" for name in ("overrides", "gate_checks", "estimation", "compare")
+    ),
+    "hybridlog.simulate": tuple(
+        f"hybridlog.simulation_{name}"
+        for name in ("inputs", "range", "domains", "limits", "schedule")
     ),
 }
 """Each split module and the modules that took part of it."""

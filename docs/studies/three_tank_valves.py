@@ -34,7 +34,8 @@ from hybridlog.model.builtins import builtin_text
 from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.model.loader import load_model, parse_model
-from hybridlog.simulate import Disturbance, SimulatedLog, simulate
+from hybridlog.simulate import SimulatedLog, simulate
+from hybridlog.simulation_inputs import Disturbance
 
 SETTLE = 50
 DISTURBANCE = Disturbance(2e-4, 2 * np.pi)

@@ -34,14 +34,14 @@ from hybridlog.model.reads import refuse_unread_by_simulation
 from hybridlog.model.schedule import parse_schedule
 from hybridlog.numbers import parse_float
 from hybridlog.outputs import PathLike
-from hybridlog.simulate import (
+from hybridlog.simulate import simulate as simulate_model
+from hybridlog.simulation_inputs import parse_disturbance
+from hybridlog.simulation_schedule import (
     cut_schedule,
-    parse_disturbance,
     switches_made,
     unmade_switches,
     unreached_modes,
 )
-from hybridlog.simulate import simulate as simulate_model
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
@@ -53,9 +53,10 @@ __all__ = ["SimulationOutcome", "log_columns", "simulate_log"]
 class SimulationOutcome:
     """What ``hybridlog simulate`` wrote: the log, its number of samples (rows), and notes.
 
-    ``notes``: scheduled modes ``--steps`` cut off (:func:`hybridlog.simulate.cut_schedule`)
-    and what the run did that the model gives probability 0
-    (:func:`hybridlog.simulate.impossible_switches`), which the CLI prints on stderr.
+    ``notes``: scheduled modes ``--steps`` cut off
+    (:func:`hybridlog.simulation_schedule.cut_schedule`) and what the run did that the model
+    gives probability 0 (:func:`hybridlog.simulation_schedule.impossible_switches`), which the
+    CLI prints on stderr.
     """
 
     path: Path
@@ -91,7 +92,7 @@ def simulate_log(
     schedule, steps, seed, noise:
         As for :func:`hybridlog.simulate.simulate`.
     disturbance:
-        ``"A,OMEGA"``: the :class:`~hybridlog.simulate.Disturbance` of paper 003 eq. (49).
+        ``"A,OMEGA"``: the :class:`~hybridlog.simulation_inputs.Disturbance` of paper 003 eq. (49).
     force:
         Replace an existing file, or a ROS 2 bag folder hybridlog wrote (never the model).
     settings:

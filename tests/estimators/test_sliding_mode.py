@@ -16,7 +16,8 @@ from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.signals import AlignedSignals
-from hybridlog.simulate import Disturbance, simulate
+from hybridlog.simulate import simulate
+from hybridlog.simulation_inputs import Disturbance
 from tests.support.cli import run_main
 from tests.support.model_kinds import CONTINUOUS_TANK, VALVES_BOOLEAN
 from tests.support.paths import ROOT, SAMPLE_LOGS

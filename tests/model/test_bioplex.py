@@ -211,7 +211,7 @@ def test_the_memory_a_run_needs_counts_every_column_and_message(model):
     # bioplex_pgc as a ROS 1 bag grew by 2256 bytes a row (18 topics: an index entry per
     # message), where the check counted 1080 (the three-tank's 15 values a row, 8 topics):
     # a run twice what fits was let through to be killed for memory.
-    from hybridlog.simulate import memory_needed
+    from hybridlog.simulation_limits import memory_needed
 
     assert memory_needed(model, 1000, "bag") > 1000 * 2256  # at least what the bag writer took
     # 62 values (15 of the plain model, 5 commands, the controller's integral, 10 plant

@@ -12,7 +12,8 @@ from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.derivatives import boolean_affine_split
 from hybridlog.model.integration import EULER, RK4, step_function
 from hybridlog.model.loader import load_model, parse_model
-from hybridlog.simulate import Disturbance, simulate
+from hybridlog.simulate import simulate
+from hybridlog.simulation_inputs import Disturbance
 from tests.support.model_kinds import CLUTCH_JUMPS, CONTINUOUS_TANK
 from tests.support.models import PENDULUM_ONE_MODE
 

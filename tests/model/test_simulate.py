@@ -11,7 +11,8 @@ from hybridlog.estimators.hstf import HstfOptions, run_hstf
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.signals import AlignedSignals
-from hybridlog.simulate import memory_needed, simulate
+from hybridlog.simulate import simulate
+from hybridlog.simulation_limits import memory_needed
 from tests.support.models import PENDULUM_ONE_MODE
 from tests.support.paths import ROOT
 
@@ -523,7 +524,7 @@ def test_a_run_in_chunks_is_the_run_in_one_call(tmp_path, monkeypatch, model, sc
     # the compiled loops run a few thousand steps a call (a long run says how long it takes,
     # and a signal ends it); each chunk starts from the row before it, to the same values
     import hybridlog.simulate as simulate_module
-    from hybridlog.simulate import Disturbance
+    from hybridlog.simulation_inputs import Disturbance
 
     disturbance = None
     if model == "ice_clutch":  # its 10 integration steps a row each draw process noise

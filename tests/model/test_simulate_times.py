@@ -14,8 +14,9 @@ import pytest
 
 from hybridlog.model.builtins import builtin_text
 from hybridlog.model.loader import parse_model
-from hybridlog.simulate import sample_times, simulate
+from hybridlog.simulate import simulate
 from hybridlog.simulate_components import simulate_components
+from hybridlog.simulation_inputs import sample_times
 
 ONE_STATE = """
 name = "decay"
