@@ -39,6 +39,7 @@ from hybridlog.model.compiled import input_functions, load_generated
 from hybridlog.model.component_structure import solve_explicitly
 from hybridlog.model.components import UNKNOWN, Component, Equation, joint_label
 from hybridlog.signals import FloatArray
+from hybridlog.simulation_inputs import input_hint, input_signal, model_origin
 from hybridlog.times import format_time
 
 if TYPE_CHECKING:
@@ -124,10 +125,6 @@ class _Joint:
     measurement_std: FloatArray
 
 
-def _origin(model: HybridModel) -> str:
-    return model.origin or model.name
-
-
 def scenario_settings(
     model: HybridModel, scenario: Scenario, settings: Mapping[str, float] | None
 ) -> StepValues:
@@ -143,7 +140,7 @@ def scenario_settings(
     """
     from hybridlog.model.scenario import StepValues, check_timing
 
-    origin = _origin(model)
+    origin = model_origin(model)
     try:
         values = scenario.parameter_values(settings)
     except KeyError as err:
@@ -196,7 +193,7 @@ def simulate_components(
     from hybridlog.simulation_range import out_of_range, within_range
 
     seed = check_seed(seed)
-    origin = _origin(model)
+    origin = model_origin(model)
     scenario = model.scenario
     if not model.has_components or scenario is None:
         raise ModelError(f"{origin}: components: not a components model")
@@ -415,7 +412,7 @@ def _default_mode(model: HybridModel, component: Component) -> str:
         return best
     shown = ", ".join(f"{mode} {p:.6g}" for mode, p in ranked)
     raise ModelError(
-        f"{_origin(model)}: simulation.modes.{component.name}: no mode to simulate component "
+        f"{model_origin(model)}: simulation.modes.{component.name}: no mode to simulate component "
         f"'{component.name}' in: its initial probabilities ({component.key}.initial: "
         f"{shown}) name no single most likely known mode; write {component.name} = "
         f'"MODE" (or "MODE, MODE@STEP, ...") under [simulation.modes]'
@@ -445,8 +442,6 @@ def _overrides(
 
 def _open_loop_inputs(model: HybridModel, scenario: Scenario, time: FloatArray) -> FloatArray:
     """``u(k)`` of the inputs ``[simulation.inputs]`` gives; the controller fills the rest."""
-    from hybridlog.simulation_inputs import input_hint, input_signal
-
     functions = input_functions(model)
     inputs = np.zeros((time.shape[0], model.n_inputs))
     for j, name in enumerate(model.inputs):
@@ -454,8 +449,8 @@ def _open_loop_inputs(model: HybridModel, scenario: Scenario, time: FloatArray) 
             continue
         if name not in functions:
             raise ModelError(
-                f"{_origin(model)}: simulation.inputs.{name}: no input signal to simulate with "
-                f"(nor simulation.controller.inputs); {input_hint(name)}"
+                f"{model_origin(model)}: simulation.inputs.{name}: no input signal to simulate "
+                f"with (nor simulation.controller.inputs); {input_hint(name)}"
             )
         inputs[:, j] = input_signal(model, name, functions[name], time)
     return inputs
@@ -544,7 +539,7 @@ def _joint_source(
     from hybridlog.model.codegen import assignments
     from hybridlog.model.expressions import previous_symbol
 
-    origin = _origin(model)
+    origin = model_origin(model)
     shown = _describe(joint, scenario)
     equations = _joint_equations(model, scenario, joint)
     universe = (*model.states, *model.inputs, *model.outputs, *model.variables)

@@ -127,15 +127,15 @@ def check_f_h_domain(
 ) -> None:
     """Name the ``f`` or ``h`` expression that turned the run's first finite point into NaN.
 
-    ``sqrt(x)`` of an output at a state stepping below 0, or ``x**(1/3) - 2`` of a
-    discrete-time state, made "the simulation diverged: y = nan", naming neither the mode
-    nor the expression (the continuous ``dx`` has :func:`check_dx_domain`).  At the first
-    row that is not finite, ``h`` is evaluated again at its state when that is finite, else
-    ``f`` (``None`` in continuous time) at the row before, in the mode ``mode_of_step``
-    gives the step into the row.  A point already beyond the range a log holds is said by
-    the range check (:func:`check_columns`), as the earlier fault.  A linear mode (``A, B,
-    C, D``: no ``f`` or ``h`` in its file) leaves no domain; its overflow is said by the
-    range check.  ``arrays``: the run's ``modes, inputs, time, states, outputs``.
+    ``sqrt(x)`` of an output at a state stepping below 0, or ``x**(1/3) - 2`` of a discrete-time
+    state, made "the simulation diverged: y = nan", naming neither the mode nor the expression
+    (the continuous ``dx`` has :func:`check_dx_domain`).  At the first row that is not finite,
+    ``h`` is evaluated again at its state when that is finite, else ``f`` (``None`` in
+    continuous time) at the row before, in the mode ``mode_of_step`` gives the step into the
+    row.  A point already beyond the range a log holds is said by the range check
+    (:func:`~hybridlog.simulation_range.check_columns`), as the earlier fault.  A linear mode
+    (``A, B, C, D``: no ``f`` or ``h`` in its file) leaves no domain; its overflow is said by
+    the range check.  ``arrays``: the run's ``modes, inputs, time, states, outputs``.
     """
     from hybridlog.model.escape import Escape, escape_error
 

@@ -22,9 +22,9 @@ if TYPE_CHECKING:
 
 COPIES = 3.0
 """Copies of every simulated value alive at the peak of ``hybridlog simulate``: the arrays of
-:func:`simulate` and what the log writer builds from them.  Measured (peak RSS growth of
-three-tank runs of 2·10^5 and 4·10^5 steps): CSV 1.3, Parquet 1.6, MCAP 1.3, ROS 2 bags 1.4
-copies; the check uses the worst case, with a margin."""
+:func:`~hybridlog.simulate.simulate` and what the log writer builds from them.  Measured (peak
+RSS growth of three-tank runs of 2·10^5 and 4·10^5 steps): CSV 1.3, Parquet 1.6, MCAP 1.3, ROS 2
+bags 1.4 copies; the check uses the worst case, with a margin."""
 
 
 def memory_needed(model: HybridModel, rows: int, log_format: str | None = None) -> int:

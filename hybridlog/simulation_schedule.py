@@ -50,11 +50,12 @@ def mode_sequence(schedule: list[tuple[int, int]], steps: int | None) -> IntArra
 def unreached_modes(model: HybridModel, modes: IntArray, schedule: str | None) -> dict[str, int]:
     """Mode id → the step the schedule first plays it, for each mode of it the run never had.
 
-    ``modes``: the run's (:attr:`SimulatedLog.modes`); ``schedule``: the ``--schedule``
-    given, else the model's ``[simulation] schedule`` (none: the first mode throughout,
-    which every run has).  Only a ``--steps`` shorter than the schedule leaves one out; row 0
-    carries the first scheduled mode (:func:`mode_sequence`), an entry after it starts one
-    row after the steps before it.  Empty for a state-driven model (its guards decide).
+    ``modes``: the run's (:attr:`~hybridlog.simulate.SimulatedLog.modes`); ``schedule``: the
+    ``--schedule`` given, else the model's ``[simulation] schedule`` (none: the first mode
+    throughout, which every run has).  Only a ``--steps`` shorter than the schedule leaves one
+    out; row 0 carries the first scheduled mode (:func:`mode_sequence`), an entry after it
+    starts one row after the steps before it.  Empty for a state-driven model (its guards
+    decide).
     """
     parsed = _run_schedule(model, schedule)
     if parsed is None:
@@ -126,10 +127,11 @@ def cut_schedule(
 ) -> tuple[str, ...]:
     """A note when ``steps`` stops a scheduled run before one of its modes is reached.
 
-    ``--schedule 1:100,2:100 --steps 50`` wrote a log of mode 1 alone without a word, which
-    a user who asked for both modes took for a run through both.  ``modes``: the run's
-    (:attr:`SimulatedLog.modes`); ``schedule``: the ``--schedule`` given, else the model's
-    ``[simulation] schedule`` is meant (none: nothing was scheduled, nothing to note).
+    ``--schedule 1:100,2:100 --steps 50`` wrote a log of mode 1 alone without a word, which a
+    user who asked for both modes took for a run through both.  ``modes``: the run's
+    (:attr:`~hybridlog.simulate.SimulatedLog.modes`); ``schedule``: the ``--schedule`` given,
+    else the model's ``[simulation] schedule`` is meant (none: nothing was scheduled, nothing to
+    note).
     """
     if steps is None or model.state_driven:
         return ()
