@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import importlib
 import re
+import types
 
 import pytest
 
@@ -167,8 +168,10 @@ def test_a_moved_name_is_not_named_in_its_old_module(old: str) -> None:
     moved = {
         name
         for new in SPLITS[old]
-        for name in vars(importlib.import_module(new))
-        if not hasattr(module, name)
+        for name, value in vars(importlib.import_module(new)).items()
+        # a module a new one imports is not moved: ``summary.csv`` is batch's file, not the
+        # ``csv`` module that report/summary_tables.py imports
+        if not isinstance(value, types.ModuleType) and not hasattr(module, name)
     }
     short = old.rsplit(".", 1)[1]
     path = old.removeprefix("hybridlog.").replace(".", "/") + ".py"
