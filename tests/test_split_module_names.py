@@ -18,7 +18,8 @@ file keys, log fields, mode equations and mode switching, ``report/document.py``
 values, the report's parts and its reader, ``report/plots.py`` its figures made ahead,
 curves, labels, legends, time axis and ``modes.png``, ``jobs/analysis.py`` its ``--set``
 overrides, gate checks, estimation steps and ``compare``, ``simulate.py`` its inputs, range
-checks, domain checks, run limits and schedule to modules of their own: after the splits,
+checks, domain checks, run limits and schedule, ``report/summary.py`` its tables, notes,
+batch rows and offline pass to modules of their own: after the splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -147,6 +148,9 @@ SPLITS = {
     "hybridlog.simulate": tuple(
         f"hybridlog.simulation_{name}"
         for name in ("inputs", "range", "domains", "limits", "schedule")
+    ),
+    "hybridlog.report.summary": tuple(
+        f"hybridlog.report.summary_{part}" for part in ("tables", "notes", "rows", "offline")
     ),
 }
 """Each split module and the modules that took part of it."""
