@@ -451,7 +451,7 @@ def analyze_command(
     say(ctx, f"report: {path_text(outcome.out_dir / 'report.md')}")
     if not is_quiet(ctx):  # every kind, as batch and compare count
         from hybridlog.report.markdown import WARNING_PREFIX
-        from hybridlog.report.summary import warning_notes
+        from hybridlog.report.summary_notes import warning_notes
 
         for warning in warning_notes(report):
             text = warning.removeprefix(WARNING_PREFIX)

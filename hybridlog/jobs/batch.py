@@ -34,7 +34,7 @@ processes (:mod:`hybridlog.jobs.workers`), ``scheduler`` on a Dask cluster
 summarised in natural order (``s1, s2, s10``).  The batch process of ``jobs > 1`` or of a
 cluster imports neither polars nor numba (``tests/jobs/test_batch_process.py``): it checks,
 hands out the logs and writes the summaries, whose CSV it writes with :mod:`csv`
-(:func:`hybridlog.report.summary.write_summary_csv`); the report's writer is imported
+(:func:`hybridlog.report.summary_tables.write_summary_csv`); the report's writer is imported
 where a log is analysed.
 
 **Where each part lives.**  This module runs the batch (:func:`run_batch`) and sizes its

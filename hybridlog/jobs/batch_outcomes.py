@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from hybridlog.errors import shortened
 from hybridlog.report import Report
-from hybridlog.report.summary import warning_notes
+from hybridlog.report.summary_notes import warning_notes
 
 __all__ = ["BatchOutcome", "LogOutcome", "error_line"]
 

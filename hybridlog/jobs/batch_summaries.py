@@ -24,13 +24,9 @@ from hybridlog.outputs.records import remove_written
 from hybridlog.report import evaluate_gates
 from hybridlog.report.gates import Gate
 from hybridlog.report.junit import is_junit_of_ours, write_junit
-from hybridlog.report.summary import (
-    BatchRow,
-    batch_markdown,
-    batch_rows_csv,
-    offline_label,
-    offline_metrics,
-)
+from hybridlog.report.summary import batch_markdown, batch_rows_csv
+from hybridlog.report.summary_offline import offline_label, offline_metrics
+from hybridlog.report.summary_rows import BatchRow
 
 __all__ = ["made_elsewhere_note", "summaries_ours", "summarise", "withdraw_summaries"]
 

@@ -70,7 +70,7 @@ from hybridlog.report.reading_notes import (
     log_reading_notes,
     unused_sample_notes,
 )
-from hybridlog.report.summary import markdown_table
+from hybridlog.report.summary_tables import markdown_table
 from hybridlog.signals import NO_TRUE_MODE, AlignedSignals, FloatArray
 
 __all__ = [

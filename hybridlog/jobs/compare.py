@@ -54,15 +54,10 @@ from hybridlog.report.comparison import (
     unequal_columns,
 )
 from hybridlog.report.gates import Gate, metric
-from hybridlog.report.summary import (
-    comparison_markdown,
-    gate_cell,
-    gated_columns,
-    markdown_table,
-    state_columns,
-    warning_notes,
-    write_summary_csv,
-)
+from hybridlog.report.summary import comparison_markdown
+from hybridlog.report.summary_notes import warning_notes
+from hybridlog.report.summary_rows import gate_cell, gated_columns, state_columns
+from hybridlog.report.summary_tables import markdown_table, write_summary_csv
 from hybridlog.report.table_format import check_table_format
 
 if TYPE_CHECKING:

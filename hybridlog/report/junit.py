@@ -10,9 +10,9 @@ GitLab, Jenkins and Azure DevOps (``testsuites`` → ``testsuite`` → ``testcas
 In a batch with an offline pass (``--smooth``, ``--mode-sequence``) each analysed log's
 cases carry its offline and filter's own metrics in ``system-out``, a line each
 (``mode_accuracy = 0.995851 (the filter's own: 0.987552)``, then per component and per
-state, as summary.csv's columns: :func:`hybridlog.report.summary.offline_columns`), and the
+state, as summary.csv's columns: :func:`hybridlog.report.summary_offline.offline_columns`), and the
 ``testsuite`` the batch's gains per metric as ``properties``
-(:func:`hybridlog.report.summary.offline_gains`): ``smoothing`` (the pass), then
+(:func:`hybridlog.report.summary_offline.offline_gains`): ``smoothing`` (the pass), then
 ``<metric>.logs``, ``.filtered_median``, ``.offline_median``, ``.median_change``,
 ``.better``, ``.equal``, ``.worse``, with their shortest round-trip digits.  Where the
 smoother left the forward estimate standing, a last line of ``system-out`` says so (``the
@@ -26,7 +26,7 @@ A log whose true mode starts late (its mode accuracy over part of the log,
 :func:`hybridlog.report.coverage.mode_coverage`) says so in its cases' ``system-out`` too:
 ``mode_accuracy is over 201 of 301 samples (the true mode starts at t = 100 s)``; and a log
 whose report warns (its notes that start ``WARNING:``,
-:func:`hybridlog.report.summary.warning_notes`: the innovations' test of a filter, a true
+:func:`hybridlog.report.summary_notes.warning_notes`: the innovations' test of a filter, a true
 mode silent longer than ``--max-gap``) has each warning there, a line each, as report.md
 has them.
 """
@@ -50,7 +50,9 @@ from hybridlog.outputs import (
     wrote_file,
 )
 from hybridlog.report.coverage import mode_coverage
-from hybridlog.report.summary import BatchRow, offline_gains, offline_label, warning_notes
+from hybridlog.report.summary_notes import warning_notes
+from hybridlog.report.summary_offline import offline_gains, offline_label
+from hybridlog.report.summary_rows import BatchRow
 
 if TYPE_CHECKING:
     from hybridlog.report.document import Report
@@ -153,7 +155,7 @@ def _offline_text(row: BatchRow, metrics: Sequence[str]) -> str | None:
         apart = row.samples_apart(metric)
         if apart is None:
             lines.append(f"{metric} = {shown(offline)} (the filter's own: {shown(own)})")
-        else:  # over other samples: not a gain (summary.offline_samples_apart)
+        else:  # over other samples: not a gain (summary_offline.offline_samples_apart)
             lines.append(
                 f"{metric} = {shown(offline)} over {apart[1]:,} samples (the filter's own: "
                 f"{shown(own)} over {apart[0]:,} samples; not compared)"
@@ -175,7 +177,7 @@ def junit_tree(
     """The JUnit document of a batch (see the module docstring).
 
     ``offline``: the metrics compared when the run has an offline pass
-    (:func:`~hybridlog.report.summary.offline_metrics`), ``None`` otherwise (nothing of
+    (:func:`~hybridlog.report.summary_offline.offline_metrics`), ``None`` otherwise (nothing of
     it is written).
     """
     root = ET.Element("testsuites", {"name": ROOT_NAME})

@@ -36,7 +36,7 @@ from hybridlog.report.coverage import mode_coverage
 from hybridlog.report.markdown import plural
 from hybridlog.report.plot_data import plain_text
 from hybridlog.report.plot_figures import PNG_COMPRESS_LEVEL, make_ticks_ahead, matplotlib_defaults
-from hybridlog.report.summary import BatchRow
+from hybridlog.report.summary_rows import BatchRow
 
 __all__ = ["MAX_LABELS", "prepare_summary_figure", "summary_figure", "write_summary_plot"]
 

@@ -156,7 +156,7 @@ def test_cluster_refuses_its_settings_before_reading_the_log(tmp_path: Path) -> 
 def test_different_numbers_side_by_side_never_read_alike(tmp_path: Path) -> None:
     """imm's VAF 99.9721 and hstf's 99.9655 both read '99.97' in comparison.md (and hstf
     missed a gate at 99.97 its cell seemed to meet)."""
-    from hybridlog.report.summary import markdown_table
+    from hybridlog.report.summary_tables import markdown_table
 
     outcome = compare(CART, "double_cart_case1", ["imm", "hstf"], out_dir=tmp_path / "cmp")
     vaf = {name: report.vaf for name, report in outcome.reports.items()}

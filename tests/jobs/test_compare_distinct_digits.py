@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from hybridlog.report.summary import markdown_table
+from hybridlog.report.summary_tables import markdown_table
 
 
 def test_values_that_differ_past_eight_digits_still_read_apart() -> None:

@@ -11,7 +11,7 @@ import pytest
 from hybridlog.errors import OutputError
 from hybridlog.outputs import temporary_name
 from hybridlog.report.junit import write_junit
-from hybridlog.report.summary import BatchRow
+from hybridlog.report.summary_rows import BatchRow
 
 
 def test_names_and_errors_xml_cannot_hold_are_written_out(tmp_path: Path) -> None:

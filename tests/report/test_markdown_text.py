@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from markdown_it import MarkdownIt
 
 from hybridlog.report.markdown import code_span, escape_markdown
-from hybridlog.report.summary import markdown_table
+from hybridlog.report.summary_tables import markdown_table
 
 # CommonMark with GitHub's tables and strikethrough: how a CI job summary reads the files.
 PARSER = MarkdownIt("commonmark").enable(["table", "strikethrough"])

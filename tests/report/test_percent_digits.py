@@ -52,7 +52,7 @@ def test_report_md_and_the_summary_line_write_no_false_perfect_score():
 def test_summary_tables_write_no_false_perfect_score():
     # batch's and compare's tables rounded a VAF of 99.99568 to 100.00 and a mode accuracy
     # of 0.9999997 to 1.0000; a true 100 and 1 stay as they are
-    from hybridlog.report.summary import markdown_table
+    from hybridlog.report.summary_tables import markdown_table
 
     table = markdown_table(
         ["log", "vaf", "mode_accuracy"], [["a", 99.99568, 0.9999997], ["b", 87.39, 0.99]]

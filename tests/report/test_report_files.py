@@ -694,7 +694,7 @@ def test_a_run_too_short_for_the_metrics_is_refused(tmp_path: Path, n: int) -> N
 
 def test_tables_for_people_format_numbers_per_column() -> None:
     from hybridlog.report.markdown import duration, plural
-    from hybridlog.report.summary import markdown_table
+    from hybridlog.report.summary_tables import markdown_table
 
     table = markdown_table(
         ("estimator", "vaf", "mse", "samples_per_s", "missed", "error"),

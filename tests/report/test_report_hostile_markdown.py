@@ -73,7 +73,8 @@ BLOCK_STARTS = ["# 0", "###### h", "- a", "+ b", "1. x", "12) y", "---", "= x", 
 def test_text_that_starts_a_list_item_stays_its_text(start: str) -> None:
     """A note ``# 0`` was a heading inside report.md's Notes, a log ``1. run.csv`` an
     ordered list inside summary.md's failed logs."""
-    from hybridlog.report.summary import BatchRow, batch_markdown
+    from hybridlog.report.summary import batch_markdown
+    from hybridlog.report.summary_rows import BatchRow
 
     assert _notes_shown(render_markdown(_report((start,)))) == [start]
     failed = BatchRow(log=start, folder="f", status="failed", report=None, error=start)

@@ -85,8 +85,8 @@ def test_mode_ids_with_dollars_are_drawn_as_written(
 
 
 def test_a_batch_summary_of_a_model_named_in_mathtext_is_drawn(tmp_path: Path) -> None:
-    from hybridlog.report.summary import BatchRow
     from hybridlog.report.summary_plot import summary_figure, write_summary_plot
+    from hybridlog.report.summary_rows import BatchRow
 
     rows = [
         BatchRow(

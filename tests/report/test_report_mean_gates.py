@@ -17,7 +17,7 @@ import pytest
 from hybridlog.report import build_report, render_markdown
 from hybridlog.report.gates import evaluate_gates, parse_gates
 from hybridlog.report.junit import write_junit
-from hybridlog.report.summary import BatchRow
+from hybridlog.report.summary_rows import BatchRow
 
 from .test_report_files import DT, make_run
 

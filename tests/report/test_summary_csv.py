@@ -16,7 +16,7 @@ import polars as pl
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hybridlog.report.summary import write_summary_csv
+from hybridlog.report.summary_tables import write_summary_csv
 
 TEXT = st.text(alphabet=st.sampled_from("abcXYZ019 ,;\"'\n\té…"), min_size=1, max_size=12).filter(
     lambda s: s.strip() == s and s.strip()

@@ -14,14 +14,10 @@ from pathlib import Path
 
 from hybridlog.estimators.result import FALLBACK_CAUSES, Fallbacks
 from hybridlog.report.junit import write_junit
-from hybridlog.report.summary import (
-    FALLBACK_COLUMNS,
-    MAX_NAMED,
-    BatchRow,
-    batch_markdown,
-    batch_rows_csv,
-    fallback_logs,
-)
+from hybridlog.report.summary import batch_markdown, batch_rows_csv
+from hybridlog.report.summary_notes import MAX_NAMED
+from hybridlog.report.summary_offline import FALLBACK_COLUMNS, fallback_logs
+from hybridlog.report.summary_rows import BatchRow
 from tests.report.test_summary_offline import METRICS, row
 
 HEADING = "### Logs where the smoother fell back to the forward estimate"

@@ -15,7 +15,8 @@ from pathlib import Path
 import polars as pl
 
 from hybridlog.report.document import read_report
-from hybridlog.report.summary import BatchRow, batch_markdown, batch_rows_csv
+from hybridlog.report.summary import batch_markdown, batch_rows_csv
+from hybridlog.report.summary_rows import BatchRow
 from tests.report.test_summary_plot import REPORT
 
 

@@ -20,15 +20,11 @@ from hybridlog.report.document import read_report
 from hybridlog.report.junit import write_junit
 from hybridlog.report.markdown import render_markdown
 from hybridlog.report.report_parts import Smoothing, StateReport
-from hybridlog.report.summary import (
-    MAX_NAMED,
-    BatchRow,
-    batch_markdown,
-    batch_rows_csv,
-    offline_gains,
-    offline_metrics,
-)
+from hybridlog.report.summary import batch_markdown, batch_rows_csv
+from hybridlog.report.summary_notes import MAX_NAMED
+from hybridlog.report.summary_offline import offline_gains, offline_metrics
 from hybridlog.report.summary_plot import summary_figure
+from hybridlog.report.summary_rows import BatchRow
 from tests.report.test_report_gates import _side
 from tests.report.test_summary_plot import REPORT, points
 

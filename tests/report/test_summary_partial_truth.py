@@ -17,13 +17,9 @@ from pathlib import Path
 from hybridlog.report.document import Report, read_report
 from hybridlog.report.gates import evaluate_gates, parse_gates
 from hybridlog.report.junit import write_junit
-from hybridlog.report.summary import (
-    MAX_NAMED,
-    BatchRow,
-    batch_markdown,
-    batch_rows_csv,
-    comparison_markdown,
-)
+from hybridlog.report.summary import batch_markdown, batch_rows_csv, comparison_markdown
+from hybridlog.report.summary_notes import MAX_NAMED
+from hybridlog.report.summary_rows import BatchRow
 from tests.report.test_summary_plot import REPORT
 
 TWINS = "NOTE: modes 'a' and 'b' have the same equations and noise"

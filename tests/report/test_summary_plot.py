@@ -10,8 +10,8 @@ from matplotlib.colors import to_hex
 
 from hybridlog.report.document import read_report
 from hybridlog.report.report_parts import Smoothing
-from hybridlog.report.summary import BatchRow
 from hybridlog.report.summary_plot import summary_figure, write_summary_plot
+from hybridlog.report.summary_rows import BatchRow
 from tests.report.test_report_gates import _side
 
 REPORT = Path(__file__).parents[1] / "data" / "reports" / "synthetic_extra.report.json"

@@ -11,8 +11,8 @@ from dataclasses import replace
 from matplotlib.colors import to_hex
 
 from hybridlog.report.document import read_report
-from hybridlog.report.summary import BatchRow
 from hybridlog.report.summary_plot import summary_figure
+from hybridlog.report.summary_rows import BatchRow
 from tests.report.test_summary_plot import REPORT
 
 

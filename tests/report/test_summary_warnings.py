@@ -15,14 +15,9 @@ from pathlib import Path
 
 from hybridlog.report.document import Report, read_report
 from hybridlog.report.junit import junit_tree
-from hybridlog.report.summary import (
-    MAX_NAMED,
-    BatchRow,
-    batch_markdown,
-    batch_rows_csv,
-    comparison_markdown,
-    warning_notes,
-)
+from hybridlog.report.summary import batch_markdown, batch_rows_csv, comparison_markdown
+from hybridlog.report.summary_notes import MAX_NAMED, warning_notes
+from hybridlog.report.summary_rows import BatchRow
 from tests.report.test_summary_plot import REPORT
 
 SCALED = (
