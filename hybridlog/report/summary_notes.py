@@ -23,8 +23,9 @@ __all__ = ["MAX_NAMED", "common_notes", "warning_notes", "warnings_section"]
 
 
 MAX_NAMED = 20
-"""summary.md names at most this many logs per metric where the offline estimate is worse
-than the filter's (the worst first); summary.csv has every log's values."""
+"""summary.md names at most this many logs in a list (the logs that warn, those whose offline
+estimate is worse than the filter's, the worst first, or that fell back on the filter's, ...),
+and counts the rest; summary.csv has every log's values."""
 
 
 def common_notes(reports: Iterable[Report]) -> list[str]:
