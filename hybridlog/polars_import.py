@@ -37,7 +37,7 @@ ANY_TIME_ZONE = "POLARS_IGNORE_TIMEZONE_PARSE_ERROR"
 Arrow writes a fixed offset as the zone (``+05:30``: pandas' ``FixedOffset``, a
 ``datetime.timezone``), which polars 2.1 does not know and so panicked on, whatever column
 was read: a valid log was refused as "damaged".  A zoned timestamp is stored in UTC whatever
-its zone, and hybridlog reads it so (``io/tables.py``, ``TableSource._temporal_ns``), so the
+its zone, and hybridlog reads it so (``io/time_column.py``, ``time_column._temporal_ns``), so the
 zone never matters.  Set once here, before polars starts a thread: changing the environment
 while other threads may read it is undefined behaviour in C."""
 os.environ[ANY_TIME_ZONE] = "1"

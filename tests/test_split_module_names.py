@@ -8,7 +8,8 @@ its state RMSE, blocks of rows, scaled sums and error powers to ``state_error.py
 sides, null reasons, few-samples warning and model notes to modules of those names,
 ``cli.py`` its parameter
 types, options, lines, progress bars and process handling to ``cli_*.py``, ``io/tables.py``
-its CSV checks and frames, Parquet files, time columns and column helpers, ``io/messages.py``
+its CSV checks and frames, Parquet files and columns, the table's shared facts, time columns,
+``--sort``'s time order, numbers, ``inspect``'s description and column helpers, ``io/messages.py``
 its topics, topic reader, header stamps, ``inspect`` counts, message leaves and JSON helpers,
 ``io/align.py`` its grid, resampling, output gaps, notes, true modes and ``--split-gaps``
 pieces, ``outputs.py`` (now a package re-exporting its public names) its paths, overlaps,
@@ -69,7 +70,13 @@ SPLITS = {
             "csv_frames",
             "csv_numbers",
             "parquet_files",
+            "parquet_columns",
+            "table_file",
             "table_times",
+            "time_column",
+            "time_order",
+            "table_numbers",
+            "table_description",
             "table_labels",
             "column_types",
             "column_summary",

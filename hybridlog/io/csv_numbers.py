@@ -56,7 +56,7 @@ def _not_a_number(cell: str, *, booleans: bool) -> str:
 
     ``booleans``: true and false count as numbers in a column of nothing else.
     ``analyze``'s refusal of the cell (:func:`parse_floats`) and ``inspect``'s note of the
-    first such cell of a column of numbers (:meth:`.tables.TableSource._describe_csv`) alike.
+    first such cell of a column of numbers (:func:`.table_description.describe_csv`) alike.
     """
     hint = ""
     if booleans and cell.lower() in BOOLEANS:

@@ -140,7 +140,7 @@ class ColumnTally:
 
         Those whose number reaches 2^53 or is infinite but for infinities spelled so
         (``inf``, ``-Infinity``), with their rows: ``analyze`` refuses them unless they are
-        held exactly (``TableSource._unheld_value``).
+        held exactly (``table_numbers.unheld_value``).
         """
         if not self._suspect_rows:
             return pl.Series(self.name, [], dtype=pl.String), np.zeros(0, dtype=np.int64)

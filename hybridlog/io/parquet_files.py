@@ -1,4 +1,4 @@
-"""A Parquet log's file read by polars: its schema, or columns, its name as Python takes it.
+"""A Parquet log's file read by polars: its schema, rows or columns, its name as Python takes it.
 
 A file polars panics on is refused (:func:`.polars_errors.panics_refused`).
 """
@@ -29,3 +29,21 @@ def read_parquet_schema(path: Path) -> dict[str, pl.DataType]:
     if not schema:
         raise LogError(f"{path}: the Parquet file has no columns")
     return dict(schema)
+
+
+def read_parquet_columns(path: Path, columns: list[str]) -> pl.DataFrame:
+    """The named top-level columns of a Parquet log, as stored, a row group at a time."""
+    try:
+        return read_parquet(path, columns=columns, low_memory=True)
+    except pl.exceptions.PolarsError as err:
+        raise LogError(f"{path}: not a readable Parquet file ({first_line(err)})") from err
+
+
+def parquet_rows(path: Path) -> int:
+    """How many rows a Parquet log has (from its metadata)."""
+    try:
+        with panics_refused(path, "Parquet"), polars_file(path, "rb") as source:
+            rows = pl.scan_parquet(source, glob=False).select(pl.len()).collect().item()
+    except pl.exceptions.PolarsError as err:
+        raise LogError(f"{path}: not a readable Parquet file ({first_line(err)})") from err
+    return int(rows)
