@@ -196,9 +196,9 @@ def _patch_writer(writer: Any) -> None:
     _patch(writer, "render_markdown", "report.json + report.md")
 
 
-def _patch_plot_data(plot_data: Any) -> None:
-    _patch(plot_data.PlotReducer, "add", "plot reductions")
-    _patch(plot_data.PlotReducer, "finish", "plot reductions")
+def _patch_plot_reducer(plot_reducer: Any) -> None:
+    _patch(plot_reducer.PlotReducer, "add", "plot reductions")
+    _patch(plot_reducer.PlotReducer, "finish", "plot reductions")
 
 
 def _patch_document(document: Any) -> None:
@@ -220,7 +220,7 @@ PATCHES: dict[str, Callable[[Any], None]] = {
     "hybridlog.jit": _patch_jit,
     "hybridlog.estimators.common": _patch_common,
     "hybridlog.report.build": _patch_build,
-    "hybridlog.report.plot_data": _patch_plot_data,
+    "hybridlog.report.plot_reducer": _patch_plot_reducer,
     "hybridlog.report.plot_figures": _patch_plot_figures,
     "hybridlog.report.plots": _patch_plots,
     "hybridlog.report.document": _patch_document,

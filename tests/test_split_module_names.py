@@ -20,7 +20,9 @@ values, the report's parts and its reader, ``report/plots.py`` its figures made 
 curves, labels, legends, time axis and ``modes.png``, ``jobs/analysis.py`` its ``--set``
 overrides, gate checks, estimation steps and ``compare``, ``simulate.py`` its inputs, range
 checks, domain checks, run limits and schedule, ``report/summary.py`` its tables, notes,
-batch rows and offline pass to modules of their own: after the splits,
+batch rows and offline pass, ``report/plot_data.py`` its time axis helpers (to
+``plot_time_axis.py``), pixel bins, curve envelopes and bands, mode timeline bars and
+reducer to modules of their own: after the splits,
 ``docs/smoothing.md`` still sent readers to ``smoothing.rts_step``,
 ``smoothing.semidefinite_step`` and ``smoothing._positive_pivots``,
 ``docs/architecture.md`` to ``report/build.py``'s ``unused_sample_notes`` and
@@ -158,6 +160,16 @@ SPLITS = {
     ),
     "hybridlog.report.summary": tuple(
         f"hybridlog.report.summary_{part}" for part in ("tables", "notes", "rows", "offline")
+    ),
+    "hybridlog.report.plot_data": tuple(
+        f"hybridlog.report.{name}"
+        for name in (
+            "plot_time_axis",
+            "pixel_bins",
+            "curve_envelopes",
+            "timeline_bars",
+            "plot_reducer",
+        )
     ),
 }
 """Each split module and the modules that took part of it."""

@@ -28,9 +28,9 @@ from matplotlib import rc_context
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from hybridlog.report.plot_data import plain_text, time_origin
+from hybridlog.report.plot_data import plain_text
 from hybridlog.report.plot_figures import matplotlib_defaults
-from hybridlog.report.plot_time_axis import label_time_axis
+from hybridlog.report.plot_time_axis import label_time_axis, time_origin
 from hybridlog.signals import FloatArray, IntArray
 
 __all__ = ["MAX_CLUSTER_COLOURS", "plot_clusters", "save_reproducibly"]

@@ -16,8 +16,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from hybridlog.report.curve_envelopes import column_maxima
 from hybridlog.report.plot_curves import draw_curve
-from hybridlog.report.plot_data import Bars, Components, ModeTimelines, PlotData, column_maxima
+from hybridlog.report.plot_data import Components, ModeTimelines, PlotData
 from hybridlog.report.plot_figures import new_figure, save
 from hybridlog.report.plot_labels import (
     Keys,
@@ -36,6 +37,7 @@ from hybridlog.report.plot_legends import (
     text_handle,
 )
 from hybridlog.report.plot_time_axis import set_time_span, time_axis
+from hybridlog.report.timeline_bars import Bars
 from hybridlog.signals import FloatArray, IntArray
 
 if TYPE_CHECKING:
@@ -166,7 +168,7 @@ def _heat_map_cells(modes: ModeTimelines, edges: FloatArray) -> tuple[FloatArray
 
     ``cells[r, c]`` is the probability of row ``r`` in pixel column ``c`` (between
     ``edges[c]`` and ``edges[c + 1]``): its maximum there
-    (:func:`~hybridlog.report.plot_data.column_maxima`), NaN where it has none.  Mode ``j``
+    (:func:`~hybridlog.report.curve_envelopes.column_maxima`), NaN where it has none.  Mode ``j``
     owns rows from ``j - 0.5`` to ``j + 0.5``, as its row in the mode panel; with the filter's
     own probabilities (``filtered_probabilities``) they take the middle
     :data:`FILTERED_ROW_PART` of it, the estimate's the rest, above and below.

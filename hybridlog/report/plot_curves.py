@@ -1,6 +1,6 @@
 """A curve drawn in a panel: a line, or where a reduced curve is dense the band it fills.
 
-A reduced curve (:func:`~hybridlog.report.plot_data.envelope`) with more than two points per
+A reduced curve (:func:`~hybridlog.report.curve_envelopes.envelope`) with more than two points per
 pixel column fills each column from its minimum to its maximum and is drawn as that band,
 one outlined polygon; a finite point between two that are not is drawn as a dot
 (:func:`draw_curve`).
@@ -13,7 +13,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import numpy.typing as npt
 
-from hybridlog.report.plot_data import Envelope, pixel_columns
+from hybridlog.report.curve_envelopes import Envelope
+from hybridlog.report.pixel_bins import pixel_columns
 from hybridlog.signals import FloatArray
 
 if TYPE_CHECKING:
@@ -26,7 +27,7 @@ __all__ = ["DASHED_BAND_ALPHA", "draw_curve"]
 def draw_curve(ax: Axes, curve: Envelope, **style: Any) -> list[Line2D]:
     """Draw ``curve`` on ``ax``: a line, or a band where it is reduced and dense.
 
-    A reduced curve (:func:`~hybridlog.report.plot_data.envelope`) with over two points per
+    A reduced curve (:func:`~hybridlog.report.curve_envelopes.envelope`) with over two points per
     pixel column is a long run: its zigzag through each bin's first, minimum, maximum and
     last sample fills the bin's column from minimum to maximum.  The band (:func:`_band`)
     fills the same columns as one polygon, outlined with the line's width, instead of

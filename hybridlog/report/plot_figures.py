@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hybridlog.report.plot_data import FIGURE_DPI, FIGURE_WIDTH_IN, PANEL_LEFT, PANEL_RIGHT
+from hybridlog.report.pixel_bins import FIGURE_DPI, FIGURE_WIDTH_IN, PANEL_LEFT, PANEL_RIGHT
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -13,7 +13,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from hybridlog.report.plot_data import MAX_PANELS, PANEL_LEFT, plain_text
+from hybridlog.report.pixel_bins import PANEL_LEFT
+from hybridlog.report.plot_data import MAX_PANELS, plain_text
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

@@ -21,8 +21,8 @@ mode's row).
 
 The figures are drawn from a run's :class:`~hybridlog.report.plot_data.PlotData` alone
 (:func:`draw_plots`): its curves reduced to first/min/max/last per pixel column, its mode
-timelines to the pixel columns each mode occupies (:mod:`hybridlog.report.plot_data`, which
-imports no matplotlib; :func:`write_plots` reduces a whole result and draws it).  A reduced
+timelines to the pixel columns each mode occupies (:mod:`hybridlog.report.plot_reducer`,
+which imports no matplotlib; :func:`write_plots` reduces a whole result and draws it).  A reduced
 curve with more than two points per pixel column fills each column from its minimum to its
 maximum and is drawn as that band (:func:`~hybridlog.report.plot_curves.draw_curve`); each
 panel's x range is the run's time span exactly, so that the bins are its pixel columns
@@ -42,12 +42,14 @@ import numpy as np
 
 from hybridlog.background import forked
 from hybridlog.estimators.result import EstimationResult
+from hybridlog.report.curve_envelopes import Envelope
 from hybridlog.report.mode_plots import mode_panel_height, plot_modes
 from hybridlog.report.plot_curves import draw_curve
-from hybridlog.report.plot_data import MAX_PANELS, Envelope, PlotData, reduce_result
+from hybridlog.report.plot_data import MAX_PANELS, PlotData
 from hybridlog.report.plot_figures import matplotlib_defaults, new_figure, save
 from hybridlog.report.plot_labels import empty_panel, fit_labels_left, name_label, panel_title
 from hybridlog.report.plot_legends import legend_above
+from hybridlog.report.plot_reducer import reduce_result
 from hybridlog.report.plot_time_axis import set_time_span, time_axis
 from hybridlog.signals import AlignedSignals, FloatArray
 

@@ -16,8 +16,8 @@ from hybridlog.report.build import ReportBuilder
 from hybridlog.report.document import Report
 from hybridlog.report.gates import GATES_KEY, Gate, gate_records
 from hybridlog.report.markdown import render_markdown
-from hybridlog.report.plot_data import PlotReducer
 from hybridlog.report.plot_figures import prepare_plotting
+from hybridlog.report.plot_reducer import PlotReducer
 from hybridlog.report.plots import draw_into, figure_shapes
 from hybridlog.report.table_format import TableFormat, check_table_format
 from hybridlog.report.tables import TableWriter, estimates_table, states_with_truth, timeline_table
@@ -110,7 +110,7 @@ def write_report(
     (:meth:`hybridlog.estimators.Prepared.stream`, whose arrays a later chunk overwrites):
     each chunk is taken by the metrics (:class:`~hybridlog.report.build.ReportBuilder`),
     appended to both tables and reduced for the plots
-    (:class:`~hybridlog.report.plot_data.PlotReducer`) before the next is asked for, so a
+    (:class:`~hybridlog.report.plot_reducer.PlotReducer`) before the next is asked for, so a
     streamed run never holds its whole result.  When the plots are to be drawn, matplotlib
     is imported and the empty figures are made meanwhile
     (:func:`~hybridlog.report.plot_figures.prepare_plotting`), and the figures are drawn from the

@@ -138,7 +138,7 @@ def test_the_registry_runs_it_on_a_components_model_only(model):
 
 def test_the_report_draws_one_timeline_per_component(model, tmp_path):
     from hybridlog.report.mode_plots import plot_components
-    from hybridlog.report.plot_data import reduce_result
+    from hybridlog.report.plot_reducer import reduce_result
     from hybridlog.report.plots import write_plots
 
     signals = cpha_log(model, 40, seed=3, a1=lambda k: "drift" if k >= 20 else "m11")

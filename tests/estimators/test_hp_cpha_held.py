@@ -19,7 +19,7 @@ from hybridlog.io.writers import write_table
 from hybridlog.model.loader import parse_model
 from hybridlog.report import build_report
 from hybridlog.report.build import ReportBuilder
-from hybridlog.report.plot_data import reduce_result
+from hybridlog.report.plot_reducer import reduce_result
 from hybridlog.signals import AlignedSignals
 from tests.estimators.test_hp_cpha_solving import analyze, model_text
 from tests.support.cpha import CPHA_EXAMPLE, cpha_log

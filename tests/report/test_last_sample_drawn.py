@@ -9,7 +9,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from hybridlog.report.plot_data import ModeTimelines, reduce_result
+from hybridlog.report.plot_data import ModeTimelines
+from hybridlog.report.plot_reducer import reduce_result
 from tests.support.figures import patch_save
 
 from .test_report_files import DT, T0, make_run

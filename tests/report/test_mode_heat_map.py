@@ -17,13 +17,10 @@ import numpy as np
 import pytest
 
 from hybridlog.estimators.result import EstimationResult, PostProcessing
-from hybridlog.report.plot_data import (
-    ModeTimelines,
-    PixelBins,
-    column_maxima,
-    envelope,
-    reduce_result,
-)
+from hybridlog.report.curve_envelopes import column_maxima, envelope
+from hybridlog.report.pixel_bins import PixelBins
+from hybridlog.report.plot_data import ModeTimelines
+from hybridlog.report.plot_reducer import reduce_result
 from hybridlog.signals import AlignedSignals
 from tests.support.figures import drawn_figures
 

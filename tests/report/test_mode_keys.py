@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from hybridlog.estimators.result import EstimationResult, PostProcessing
-from hybridlog.report.plot_data import Components, plain_text, reduce_result
+from hybridlog.report.plot_data import Components, plain_text
+from hybridlog.report.plot_reducer import reduce_result
 from hybridlog.signals import AlignedSignals
 from tests.support.figures import drawn_figures
 

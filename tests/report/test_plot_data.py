@@ -16,19 +16,13 @@ import pytest
 
 from hybridlog.background import Worker
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
-from hybridlog.report import Report, build_report, plot_data
+from hybridlog.report import Report, build_report, curve_envelopes, pixel_bins, timeline_bars
 from hybridlog.report.mode_metrics import SwitchDetection
-from hybridlog.report.plot_data import (
-    BarsReducer,
-    Components,
-    ModeTimelines,
-    PixelBins,
-    PlotData,
-    PlotReducer,
-    pixel_columns,
-    reduce_result,
-)
+from hybridlog.report.pixel_bins import PixelBins, pixel_columns
+from hybridlog.report.plot_data import Components, ModeTimelines, PlotData
+from hybridlog.report.plot_reducer import PlotReducer, reduce_result
 from hybridlog.report.plots import draw_into, draw_plots, write_plots
+from hybridlog.report.timeline_bars import BarsReducer
 from hybridlog.signals import NO_TRUE_MODE, AlignedSignals, ComponentTruth
 
 MODES = ("a", "b", "c")
@@ -269,7 +263,8 @@ def test_blocks_inside_a_chunk_give_the_same_data(
 ) -> None:
     result, signals = _run(20_011, seed=4, smoothed=True)
     whole = reduce_result(result, signals)
-    monkeypatch.setattr(plot_data, "_BLOCK", block)
+    for module in (pixel_bins, curve_envelopes, timeline_bars):  # each reduces in blocks
+        monkeypatch.setattr(module, "BLOCK", block)
     assert_same(_chunked(result, signals, [0, 1, 9_000, 9_001, 20_011]), whole)
 
 
@@ -414,7 +409,7 @@ def test_no_samples_and_chunks_out_of_order(tmp_path: Path) -> None:
 
 
 def test_the_reduction_imports_no_matplotlib() -> None:
-    code = "import sys, hybridlog.report.plot_data; print('matplotlib' in sys.modules)"
+    code = "import sys, hybridlog.report.plot_reducer; print('matplotlib' in sys.modules)"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == "False"
 

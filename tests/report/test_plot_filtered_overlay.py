@@ -18,7 +18,8 @@ from matplotlib.figure import Figure
 
 from hybridlog.estimators.result import EstimationResult, PostProcessing
 from hybridlog.report import plot_figures, plots
-from hybridlog.report.plot_data import ModeTimelines, PlotReducer, reduce_result
+from hybridlog.report.plot_data import ModeTimelines
+from hybridlog.report.plot_reducer import PlotReducer, reduce_result
 from hybridlog.signals import AlignedSignals
 
 N = 500

@@ -11,7 +11,9 @@ import numpy as np
 import pytest
 
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.report.plot_data import ModeTimelines, reduce_result, time_origin, time_unit
+from hybridlog.report.plot_data import ModeTimelines
+from hybridlog.report.plot_reducer import reduce_result
+from hybridlog.report.plot_time_axis import time_origin, time_unit
 from hybridlog.signals import AlignedSignals
 from tests.support.figures import drawn_figures
 

@@ -9,16 +9,11 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from hybridlog.report import mode_metrics
+from hybridlog.report.curve_envelopes import envelope
+from hybridlog.report.pixel_bins import PixelBins, pixel_columns, time_bins
 from hybridlog.report.plot_curves import DASHED_BAND_ALPHA, draw_curve
-from hybridlog.report.plot_data import (
-    PixelBins,
-    envelope,
-    mode_bars,
-    mode_runs,
-    pixel_columns,
-    time_bins,
-)
 from hybridlog.report.plot_time_axis import set_time_span
+from hybridlog.report.timeline_bars import mode_bars, mode_runs
 
 
 def _per_column(
@@ -183,7 +178,7 @@ def test_reductions_a_block_at_a_time_are_those_of_the_whole_run(
     block: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # The reference: the whole-array reductions the block-wise ones replaced.
-    from hybridlog.report import plot_data
+    from hybridlog.report import curve_envelopes, pixel_bins, timeline_bars
 
     rng = np.random.default_rng(9)
     n, columns = 20_011, 97
@@ -192,18 +187,19 @@ def test_reductions_a_block_at_a_time_are_those_of_the_whole_run(
     values[rng.integers(0, n, 300)] = np.nan
     variance = rng.normal(1.0, 0.5, n)  # some negative (clipped), some NaN
     variance[rng.integers(0, n, 200)] = np.nan
-    monkeypatch.setattr(plot_data, "_BLOCK", block)
+    for module in (pixel_bins, curve_envelopes, timeline_bars):  # each reduces in blocks
+        monkeypatch.setattr(module, "BLOCK", block)
 
     column = np.minimum(((time - time[0]) / (time[-1] - time[0]) * columns).astype(np.int64), 96)
     bins = np.concatenate(([0], np.flatnonzero(column[1:] != column[:-1]) + 1))
-    np.testing.assert_array_equal(plot_data.time_bins(time, columns), bins)
+    np.testing.assert_array_equal(pixel_bins.time_bins(time, columns), bins)
 
     ends = np.append(bins[1:], n) - 1
     finite = np.where(np.isfinite(values), values, np.nan)
     with np.errstate(invalid="ignore"):
         low, high = np.fmin.reduceat(finite, bins), np.fmax.reduceat(finite, bins)
-    pixels = plot_data.PixelBins(time, bins)
-    curve = plot_data.envelope(values, pixels)
+    pixels = pixel_bins.PixelBins(time, bins)
+    curve = curve_envelopes.envelope(values, pixels)
     points = curve.values.reshape(-1, 4)
     np.testing.assert_array_equal(points[:, 0], values[bins])
     np.testing.assert_array_equal(points[:, 3], values[ends])
@@ -220,8 +216,8 @@ def test_reductions_a_block_at_a_time_are_those_of_the_whole_run(
         band_low = np.fmin.reduceat(edge_low, bins)
         band_high = np.fmax.reduceat(edge_high, bins)
 
-    def sigma_band(mean: np.ndarray, variance: np.ndarray) -> plot_data.SigmaBand | None:
-        reducer = plot_data.BandReducer(pixels)
+    def sigma_band(mean: np.ndarray, variance: np.ndarray) -> curve_envelopes.SigmaBand | None:
+        reducer = curve_envelopes.BandReducer(pixels)
         reducer.add(mean, variance, 0)
         return reducer.finish()
 
