@@ -10,6 +10,8 @@ as many as the figures' width and resolution and the panels' extent give
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from hybridlog.report.plot_time_axis import time_origin
@@ -143,9 +145,14 @@ class PixelBins:
         return first, last
 
 
-def blocks(count: int) -> range:
-    """Starts of the blocks of at most :data:`BLOCK` rows that a chunk is reduced in."""
-    return range(0, count, BLOCK)
+def blocks(count: int) -> Iterator[tuple[int, slice]]:
+    """The blocks of at most :data:`BLOCK` rows that a chunk of ``count`` is reduced in.
+
+    Each as its first row and its rows' slice: the reductions take both from here, so
+    :data:`BLOCK` is read in this module alone.
+    """
+    for lo in range(0, count, BLOCK):
+        yield lo, slice(lo, min(lo + BLOCK, count))
 
 
 def local_starts(bins: PixelBins, a: int, b: int, start: int) -> IntArray:

@@ -13,7 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from hybridlog.report.pixel_bins import BLOCK, PixelBins, blocks
+from hybridlog.report.pixel_bins import PixelBins, blocks
 from hybridlog.signals import IntArray
 
 __all__ = ["Bars", "BarsReducer", "ModeRuns", "mode_bars", "mode_runs"]
@@ -82,9 +82,9 @@ class BarsReducer:
 
     def add(self, modes: IntArray, start: int) -> None:
         """Take the modes of samples ``start .. start + len(modes) - 1``."""
-        for lo in blocks(modes.shape[0]):
+        for lo, rows in blocks(modes.shape[0]):
             at = start + lo
-            block = modes[lo : lo + BLOCK]
+            block = modes[rows]
             a, b = self._bins.spanned(at, block.shape[0])
             runs = mode_runs(block)
             runs = ModeRuns(runs.start + at, runs.end + at, runs.mode)

@@ -16,7 +16,7 @@ import pytest
 
 from hybridlog.background import Worker
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
-from hybridlog.report import Report, build_report, curve_envelopes, pixel_bins, timeline_bars
+from hybridlog.report import Report, build_report, pixel_bins
 from hybridlog.report.mode_metrics import SwitchDetection
 from hybridlog.report.pixel_bins import PixelBins, pixel_columns
 from hybridlog.report.plot_data import Components, ModeTimelines, PlotData
@@ -263,8 +263,7 @@ def test_blocks_inside_a_chunk_give_the_same_data(
 ) -> None:
     result, signals = _run(20_011, seed=4, smoothed=True)
     whole = reduce_result(result, signals)
-    for module in (pixel_bins, curve_envelopes, timeline_bars):  # each reduces in blocks
-        monkeypatch.setattr(module, "BLOCK", block)
+    monkeypatch.setattr(pixel_bins, "BLOCK", block)  # every reduction's blocks
     assert_same(_chunked(result, signals, [0, 1, 9_000, 9_001, 20_011]), whole)
 
 

@@ -178,7 +178,7 @@ def test_reductions_a_block_at_a_time_are_those_of_the_whole_run(
     block: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # The reference: the whole-array reductions the block-wise ones replaced.
-    from hybridlog.report import curve_envelopes, pixel_bins, timeline_bars
+    from hybridlog.report import curve_envelopes, pixel_bins
 
     rng = np.random.default_rng(9)
     n, columns = 20_011, 97
@@ -187,8 +187,7 @@ def test_reductions_a_block_at_a_time_are_those_of_the_whole_run(
     values[rng.integers(0, n, 300)] = np.nan
     variance = rng.normal(1.0, 0.5, n)  # some negative (clipped), some NaN
     variance[rng.integers(0, n, 200)] = np.nan
-    for module in (pixel_bins, curve_envelopes, timeline_bars):  # each reduces in blocks
-        monkeypatch.setattr(module, "BLOCK", block)
+    monkeypatch.setattr(pixel_bins, "BLOCK", block)  # every reduction's blocks
 
     column = np.minimum(((time - time[0]) / (time[-1] - time[0]) * columns).astype(np.int64), 96)
     bins = np.concatenate(([0], np.flatnonzero(column[1:] != column[:-1]) + 1))
