@@ -350,8 +350,8 @@ def _undecided_notes(
         f"{int(np.count_nonzero(sizes > 0)):,} clusters: another labelling of them scores the "
         f"same ({total:.4g}), so their labels are the first found, not chosen by the log "
         f"({named}); the modes of their {samples:,} samples, and the mode metrics over them, "
-        "are a guess (the log does not tell the modes apart there; --set cluster_modes= sets "
-        "the labels by hand)",
+        "are a guess (the log does not tell the modes apart there; the estimator option "
+        "cluster_modes, analyze --set cluster_modes=2,1, sets the labels by hand)",
     )
 
 

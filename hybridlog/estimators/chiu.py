@@ -233,7 +233,8 @@ def mode_classifier(
                 f"{signals.source}: {algorithm} cannot label its clusters as modes: every "
                 f"labelling scores the same one-step prediction SSE ({labels.score:.4g}), so "
                 "the log does not tell the modes apart (a plant at rest, or errors whose "
-                "squares leave float64's range); --set cluster_modes= sets the labels by hand"
+                "squares leave float64's range); the estimator option cluster_modes "
+                "(analyze --set cluster_modes=2,1) sets the labels by hand"
             )
         return classifier.labelled(labels.modes, labels.notes, labelling_scores=labels.alternatives)
     return classifier.labelled(None, ("clusters not labelled (the model is not linear)",))
