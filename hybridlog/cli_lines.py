@@ -73,8 +73,10 @@ def summary_line(report: Report) -> str:
 
     text = (
         f"{report.estimator} on {path_text(report.log)}: {plural(report.samples, 'sample')} "
-        f"in {duration(report.runtime_s)}, VAF {percent(report.vaf, 2)}, "
-        f"fit {percent(report.fit, 2)}, MSE {format_number(report.mse, '.4g')}"
+        f"in {duration(report.runtime_s)}, VAF {percent(report.vaf, 2)}"
+        f"{_part_of_the_outputs(report, 'vaf')}, fit {percent(report.fit, 2)}"
+        f"{_part_of_the_outputs(report, 'fit')}, MSE {format_number(report.mse, '.4g')}"
+        f"{_part_of_the_outputs(report, 'mse')}"
     )
     scored_outputs = [o.samples for o in report.outputs.values() if o.samples is not None]
     if scored_outputs and min(scored_outputs) < report.samples - 1:  # row 0 is the prior
@@ -95,6 +97,32 @@ def summary_line(report: Report) -> str:
     if fallbacks is not None and fallbacks.samples:  # part of the "smoothed" estimate is not
         text += f"; {fallbacks.summary()}"
     return text
+
+
+_NAMED_OUTPUTS = 3
+"""Outputs named where a mean leaves some out; past that, how many more."""
+
+
+def _part_of_the_outputs(report: Report, metric: str) -> str:
+    """`` (mean of 2 of 3 outputs; y1's n/a)`` where the mean ``metric`` leaves outputs out.
+
+    The mean over the outputs is over those where the metric is defined
+    (:func:`~hybridlog.report.metrics.mean_where_defined`): report.md's table shows the
+    ``n/a`` beside it, comparison.md and a gate's message name what it leaves out, but the
+    line read ``fit 99.37 %`` for a log whose y1 was a dead sensor (constant: its fit is
+    undefined) and the other two outputs fitted.
+    """
+    if getattr(report, metric) is None:  # no mean at all: n/a says it
+        return ""
+    missing = [y for y, o in report.outputs.items() if getattr(o, metric) is None]
+    if not missing:
+        return ""
+    named = ", ".join(path_text(y) for y in missing[:_NAMED_OUTPUTS])
+    if len(missing) > _NAMED_OUTPUTS:
+        named += f" and {len(missing) - _NAMED_OUTPUTS:,} more"
+    whose = f"{named}'s" if len(missing) == 1 else f"those of {named}"
+    kept = len(report.outputs) - len(missing)
+    return f" (mean of {kept:,} of {len(report.outputs):,} outputs; {whose} n/a)"
 
 
 def _mode_accuracy_text(report: Report, shown: str) -> str:

@@ -205,6 +205,11 @@ class ClusterLabels:
         Samples decided for each cluster.
     notes:
         One line per cluster (and per mode without a cluster), for reports.
+    undecided:
+        The clusters with samples whose mode the score does not decide: another admissible
+        map that labels them otherwise scores the same (a log that does not tell the modes
+        apart, or errors whose squares leave float64's range); their label is the first
+        mode found, a guess that a ``WARNING:`` note names.
     """
 
     modes: IntArray
@@ -212,6 +217,7 @@ class ClusterLabels:
     alternatives: FloatArray
     sizes: IntArray
     notes: tuple[str, ...]
+    undecided: tuple[int, ...] = ()
 
 
 def _admissible(labels: Sequence[int], n_modes: int, n_clusters: int, sizes: IntArray) -> bool:
@@ -273,13 +279,79 @@ def label_clusters(
     chosen = np.array(best, dtype=np.int64)
     alternatives = descent.alternatives()
     total = descent.score
+    undecided = _undecided(chosen, total, scores, descent, alternatives, sizes)
     notes = (
         f"clusters labelled by {method} over cluster -> mode maps: {what} {total:.4g}{why}",
         *cluster_notes(chosen, sizes, mode_ids, alternatives=alternatives, what=what),
         *_kept_modes(chosen, alternatives, total, sizes, mode_ids, what),
+        *_undecided_notes(undecided, chosen, sizes, mode_ids, what, total),
     )
     return ClusterLabels(
-        modes=chosen, score=total, alternatives=alternatives, sizes=sizes, notes=notes
+        modes=chosen,
+        score=total,
+        alternatives=alternatives,
+        sizes=sizes,
+        notes=notes,
+        undecided=undecided,
+    )
+
+
+def _undecided(
+    chosen: IntArray,
+    total: float,
+    scores: dict[tuple[int, ...], float],
+    descent: _Descent,
+    alternatives: FloatArray,
+    sizes: IntArray,
+) -> tuple[int, ...]:
+    """The clusters with samples that another admissible map of the same score labels otherwise.
+
+    After an exhaustive search every map tied with the chosen one counts (a swap of two
+    clusters too); after coordinate descent the single moves from it.  The lowest score
+    wins, and of equal ones the first found: without this, a log on which every map scores
+    the same (a plant at rest, errors whose squares underflow to 0) was labelled by the
+    order of the search, and its mode accuracy reported as if the data had chosen.
+    """
+    populated = sizes > 0
+    if not math.isfinite(total):
+        return ()
+    found: set[int] = set()
+    if scores:
+        for labels, value in scores.items():
+            if value == total:
+                differ = (np.array(labels, dtype=np.int64) != chosen) & populated
+                found.update(int(c) for c in np.nonzero(differ)[0])
+    else:
+        for c, m in zip(*np.nonzero(alternatives == total), strict=True):
+            if populated[c] and m != chosen[c] and descent.admissible(int(c), int(m)):
+                found.add(int(c))
+    return tuple(sorted(found))
+
+
+def _undecided_notes(
+    undecided: tuple[int, ...],
+    chosen: IntArray,
+    sizes: IntArray,
+    mode_ids: Sequence[str],
+    what: str,
+    total: float,
+) -> tuple[str, ...]:
+    """The warning naming the clusters whose mode the score left to the search's order."""
+    if not undecided:
+        return ()
+    named = "; ".join(
+        f"cluster {c + 1} ({sizes[c]:,} sample{'' if sizes[c] == 1 else 's'}) labelled "
+        f"'{mode_ids[chosen[c]]}'"
+        for c in undecided
+    )
+    samples = int(sizes[list(undecided)].sum())
+    return (
+        f"WARNING: the {what} does not decide the mode of {len(undecided):,} of "
+        f"{int(np.count_nonzero(sizes > 0)):,} clusters: another labelling of them scores the "
+        f"same ({total:.4g}), so their labels are the first found, not chosen by the log "
+        f"({named}); the modes of their {samples:,} samples, and the mode metrics over them, "
+        "are a guess (the log does not tell the modes apart there; the estimator option "
+        "cluster_modes, analyze --set cluster_modes=2,1, sets the labels by hand)",
     )
 
 

@@ -166,7 +166,9 @@ def mode_classifier(
     LogError
         The log's regression vectors cannot be clustered: no more samples than the largest
         lag, or fewer distinct vectors than k-means clusters (naming the log,
-        ``signals.source``, the algorithm and φ(k)).
+        ``signals.source``, the algorithm and φ(k)); or every labelling of the clusters
+        scores the same, so that none is the log's
+        (:attr:`~hybridlog.cluster.labels.ClusterLabels.undecided`).
     OptionError
         Centres or ``cluster_modes`` that do not fit the model and these lags.
     """
@@ -223,6 +225,17 @@ def mode_classifier(
             what="one-step prediction SSE",
             samples=signals.n_samples,  # each map's score runs the observer over the log
         )
+        populated = int(np.count_nonzero(np.asarray(classifier.details["sizes"]) > 0))
+        if labels.undecided and len(labels.undecided) == populated:
+            # every cluster's mode was the search's first: kmeans refused such a log (one
+            # distinct point), chiu reported a mode accuracy of its labelling's order
+            raise LogError(
+                f"{signals.source}: {algorithm} cannot label its clusters as modes: every "
+                f"labelling scores the same one-step prediction SSE ({labels.score:.4g}), so "
+                "the log does not tell the modes apart (a plant at rest, or errors whose "
+                "squares leave float64's range); the estimator option cluster_modes "
+                "(analyze --set cluster_modes=2,1) sets the labels by hand"
+            )
         return classifier.labelled(labels.modes, labels.notes, labelling_scores=labels.alternatives)
     return classifier.labelled(None, ("clusters not labelled (the model is not linear)",))
 

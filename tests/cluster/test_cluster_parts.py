@@ -145,6 +145,34 @@ def test_labelling_by_score_gives_every_mode_a_cluster():
     )
 
 
+def test_labels_the_score_does_not_decide_are_named_not_passed_off_as_chosen():
+    sizes = np.array([5, 5, 0, 4])
+    decided = label_clusters(4, ["a", "b"], lambda labels: float(labels[0] != 1), sizes)
+    assert decided.modes[0] == 1
+    # clusters 2 and 4 may take either mode at score 0 (the empty cluster 3 counts for none)
+    assert decided.undecided == (1, 3)
+    warning = [n for n in decided.notes if n.startswith("WARNING: ")]
+    assert len(warning) == 1 and "mode of 2 of 3 clusters" in warning[0]
+    assert "cluster 2 (5 samples) labelled" in warning[0] and "9 samples" in warning[0]
+    # every map alike (a log that does not tell the modes apart): every cluster is named
+    flat = label_clusters(2, ["a", "b"], lambda labels: 0.0, np.array([3, 3]))
+    assert flat.undecided == (0, 1)
+    # a swap of two clusters ties with the exhaustive search's choice, no single move does
+    swap = label_clusters(2, ["a", "b"], lambda labels: float(labels[0] == labels[1]), sizes[:2])
+    assert swap.undecided == (0, 1)
+    # coordinate descent: the single moves from the chosen map
+    target = np.arange(12) % 2  # clusters 2 to 13 wanted in modes a, b, a, ...; 1 in either
+    many = label_clusters(
+        13, ["a", "b"], lambda labels: float(np.sum(labels[1:] != target)), np.ones(13, dtype=int)
+    )
+    assert "coordinate descent" in many.notes[0] and many.undecided == (0,)
+    # a score that tells every cluster apart leaves none undecided and warns of nothing
+    exact = label_clusters(
+        3, ["a", "b"], lambda labels: float(np.sum(labels != [0, 1, 1])), sizes[:3]
+    )
+    assert exact.undecided == () and not any(n.startswith("WARNING") for n in exact.notes)
+
+
 def test_centers_file_round_trip_and_errors(tmp_path):
     path = tmp_path / "c.json"
     content = {

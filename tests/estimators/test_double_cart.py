@@ -1,5 +1,6 @@
 """Paper 001's double cart: state-driven switching, the chiu/kmeans estimators, the CLI."""
 
+import dataclasses
 import json
 import time
 
@@ -9,7 +10,7 @@ from click.testing import CliRunner
 
 from hybridlog.cli import main
 from hybridlog.cluster.centers_file import centers_json, parse_centers
-from hybridlog.errors import ModelError, OptionError
+from hybridlog.errors import LogError, ModelError, OptionError
 from hybridlog.estimators.chiu import (
     ChiuOptions,
     chiu_options,
@@ -185,6 +186,25 @@ def test_estimators_on_the_double_cart(runner):
     assert np.all(np.isnan(result.state_variances))
     assert any("->" in note and "mode" in note for note in result.notes)
     assert "lmi_margin" in result.options["observer"]
+
+
+@pytest.mark.parametrize("scale", [0.0, 1e-300])
+def test_a_log_that_does_not_tell_the_modes_apart_is_refused_not_labelled_by_order(scale):
+    # a cart at rest (y = u = 0), or every signal near 1e-300 (squared errors underflow to
+    # 0): every cluster -> mode map scores SSE 0, and the map was the search's first, its
+    # mode accuracy reported (chiu 33.7 % on a log at rest, where kmeans refused it)
+    model = load_model("double_cart_case1")
+    log = simulate(model, steps=100, seed=1)
+    still = dataclasses.replace(log, outputs=log.outputs * scale, inputs=log.inputs * scale)
+    signals = still.signals(model, source="rest.csv")
+    with pytest.raises(LogError, match=r"rest\.csv: chiu cannot label its clusters as modes"):
+        run_chiu(model, signals, ChiuOptions())
+    if scale:  # at rest kmeans finds a single distinct point and says so before labelling
+        with pytest.raises(LogError, match="kmeans cannot label its clusters as modes"):
+            run_kmeans(model, signals, KMeansOptions())
+    # the labels given by hand are the user's, not a guess
+    given = run_chiu(model, signals, ChiuOptions(cluster_modes="1" if not scale else "1,1,1,2"))
+    assert not any(note.startswith("WARNING: the one-step") for note in given.notes)
 
 
 def test_manual_labels_and_option_errors():

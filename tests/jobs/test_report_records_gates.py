@@ -6,6 +6,7 @@ which CI keeps as artifacts, did not say which bound was missed, nor that one wa
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import re
@@ -15,7 +16,7 @@ from hybridlog.jobs.analysis import analyze
 from hybridlog.jobs.compare import compare
 from hybridlog.report import read_report, render_markdown
 from hybridlog.report.gates import GATES_KEY, gate_records, parse_gates
-from tests.support.paths import ROOT
+from tests.support.paths import ROOT, TANK_CSV
 
 CART = ROOT / "sample_logs" / "double_cart_case1.csv"
 
@@ -90,3 +91,26 @@ def test_a_met_gate_reads_on_its_side_of_the_bound_and_a_count_stays_a_count(
     (count,) = [r["value"] for r in gate_records(report, gates) if r["metric"] != "vaf"]
     assert report.modes.detection is not None
     assert count == report.modes.detection.missed and isinstance(count, int)
+
+
+def test_a_met_gate_over_part_of_the_log_says_over_which_samples(tmp_path: Path) -> None:
+    # the true mode on the first 4 of 301 rows: a missed gate said "over 4 of 301 samples",
+    # a met one read "met (mode_accuracy = 0.75 ...)" as if it were the whole log's
+    with TANK_CSV.open(newline="") as handle:
+        header, *rows = list(csv.reader(handle))
+    for row in rows[4:]:
+        row[header.index("mode")] = ""
+    log = tmp_path / "few.csv"
+    with log.open("w", newline="") as handle:
+        csv.writer(handle).writerows([header, *rows])
+    out = tmp_path / "run"
+    analyze(log, "three_tank_hstf", estimator="imm", out_dir=out)
+    report = read_report(out / "report.json")
+    assert report.modes.samples == 4 and report.modes.accuracy is not None
+    bound = report.modes.accuracy / 2
+    gates = parse_gates([f"mode_accuracy={bound!r}", "vaf=1"], [])
+    text = render_markdown(report.with_extra({GATES_KEY: gate_records(report, gates)}))
+    lines = text.split("## Gates\n\n", 1)[1].split("\n\n", 1)[0].splitlines()
+    assert ": met (mode_accuracy = " in lines[0]
+    assert " over 4 of 301 samples (the true mode has no sample from t = " in lines[0]
+    assert " over " not in lines[1]  # vaf is over the whole log: nothing to add
