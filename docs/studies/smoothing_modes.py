@@ -104,9 +104,11 @@ from hybridlog.estimators.kernels import (
     symmetrize,
     workspace,
 )
+from hybridlog.estimators.log_space import log_sum_exp, safe_log
 from hybridlog.estimators.result import EstimationResult
-from hybridlog.estimators.smoother_kernels import GUARD_TOLERANCE, log_sum_exp, safe_log, viterbi
+from hybridlog.estimators.rts_steps import GUARD_TOLERANCE
 from hybridlog.estimators.smoothing import _log, post_process
+from hybridlog.estimators.viterbi_path import viterbi
 from hybridlog.jit import compile_for, jit
 from hybridlog.model.compiled import compile_model
 from hybridlog.model.hybrid_model import HybridModel
@@ -204,7 +206,7 @@ def evidence_backward(
     store: UnpackedStore,
     out: FilterBuffers,
 ) -> None:
-    """:func:`~hybridlog.estimators.smoother_kernels.kim_backward`, the variant's pair weights."""
+    """:func:`~hybridlog.estimators.kim_loop.kim_backward`, the variant's pair weights."""
     n_samples, n_q, n = store.means.shape
     m_y = outputs.shape[1]
     log_T = np.empty((n_q, n_q))

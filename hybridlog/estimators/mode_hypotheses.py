@@ -56,7 +56,7 @@ from hybridlog.estimators.kernels import (
     measured_log_density,
     workspace,
 )
-from hybridlog.estimators.smoother_kernels import TAKEN, note_fallbacks, rts_cause, rts_work
+from hybridlog.estimators.rts_steps import TAKEN, note_fallbacks, rts_cause, rts_work
 from hybridlog.estimators.unrolled import (
     Program,
     matrix_names,
@@ -481,7 +481,7 @@ def smooth_path(
 ) -> None:
     """Extended RTS smoother along one mode path, in place over :func:`follow_path`'s output.
 
-    Each step is :func:`hybridlog.estimators.smoother_kernels.rts_step` with ``f, F`` of mode
+    Each step is :func:`hybridlog.estimators.rts_steps.rts_step` with ``f, F`` of mode
     ``path[k+1]`` linearised at ``x̂(k|k)`` (Rauch, Tung, Striebel 1965); where it does not
     apply (``P^-(k+1)`` not positive definite, its guard, or the rounding it would carry
     back: its rounding probe) the filtered estimate stands.  The
@@ -490,9 +490,9 @@ def smooth_path(
     10^9 and more, the gain ``J`` grows, and the rounding of one step's ``P^s(k+1)`` (an
     eigenvalue of -1e-18 against 1e-9) came back through ``J P^s Jᵀ`` amplified at every step
     before it, to variances of -3e-8 against 4e-7 a hundred steps earlier.  ``fallbacks``
-    (:data:`~hybridlog.estimators.smoother_kernels.FALLBACKS_WIDTH` zeros) gets the samples
+    (:data:`~hybridlog.estimators.rts_steps.FALLBACKS_WIDTH` zeros) gets the samples
     where the filtered estimate stood, by cause
-    (:func:`~hybridlog.estimators.smoother_kernels.note_fallbacks`).
+    (:func:`~hybridlog.estimators.rts_steps.note_fallbacks`).
     """
     inputs, _, Q, _, _, _, _ = run
     n_samples, n = means.shape

@@ -56,7 +56,7 @@ class Fallbacks:
     samples:
         Samples where at least one step that carries weight in the output (a next mode, or
         a pair of modes, of smoothed probability at least ``1e-16``,
-        ``smoother_kernels.NEGLIGIBLE_WEIGHT``) was refused and the forward estimate stood in its
+        ``rts_steps.NEGLIGIBLE_WEIGHT``) was refused and the forward estimate stood in its
         place.  Negligible next modes, skipped by design, are
         not counted.
     of:

@@ -168,37 +168,51 @@ from typing import Any, cast
 
 import numpy as np
 
-from hybridlog.estimators import common, kernels, smoother_kernels, smoother_source, unrolled
+from hybridlog.estimators import (
+    backward_frame,
+    branch_tuples,
+    common,
+    ec_loop,
+    ec_source,
+    generated_helpers,
+    kernels,
+    kim_source,
+    rts_source,
+    rts_steps,
+    unrolled,
+)
 from hybridlog.estimators.common import (
     FilterBuffers,
     FilterRun,
     ModeStore,
     contiguous,
 )
+from hybridlog.estimators.ec_loop import (
+    density_ceilings,
+    ec_backward,
+    positive_definite_noise,
+)
+from hybridlog.estimators.ec_source import (
+    MAX_EC_UNROLLED_MODES,
+    generate_ec_smoother_source,
+)
+from hybridlog.estimators.kim_loop import kim_backward
+from hybridlog.estimators.kim_source import generate_smoother_source
 from hybridlog.estimators.result import (
     FALLBACK_CAUSES,
     EstimationResult,
     Fallbacks,
     PostProcessing,
 )
-from hybridlog.estimators.smoother_kernels import (
+from hybridlog.estimators.rts_steps import (
     FALLBACK_WEIGHT,
     FALLBACKS_WIDTH,
-    MAX_EC_UNROLLED_MODES,
-    density_ceilings,
-    ec_backward,
-    kim_backward,
-    positive_definite_noise,
-    viterbi,
-)
-from hybridlog.estimators.smoother_source import (
-    generate_ec_smoother_source,
-    generate_smoother_source,
 )
 from hybridlog.estimators.unrolled import (
     module_source,
     use_unrolled,
 )
+from hybridlog.estimators.viterbi_path import viterbi
 from hybridlog.jit import compile_for
 from hybridlog.model.compiled import compile_generated, compile_model
 from hybridlog.model.hybrid_model import HybridModel
@@ -412,7 +426,20 @@ def _backward_pass(
             # every module whose code or constants the source takes: kernels' PSD_TOLERANCE
             # is written into it, common's packed_width and upper_pairs lay out its records
             tuple(
-                m.__name__ for m in (smoother_source, smoother_kernels, unrolled, kernels, common)
+                m.__name__
+                for m in (
+                    kim_source,
+                    ec_source,
+                    rts_source,
+                    generated_helpers,
+                    backward_frame,
+                    branch_tuples,
+                    rts_steps,
+                    ec_loop,
+                    unrolled,
+                    kernels,
+                    common,
+                )
             ),
             name,
             arguments,

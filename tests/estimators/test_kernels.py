@@ -268,7 +268,7 @@ def test_a_log_sum_exp_over_the_possible_terms_is_the_whole_one_to_the_bit(
 ) -> None:
     """Expectation correction's sums over the pairs ``Π_ij ≠ 0`` alone (``log p_ij = −∞``
     elsewhere): leaving out any ``−∞`` terms, whichever, changes no bit."""
-    from hybridlog.estimators.smoother_kernels import log_sum_exp, log_sum_exp_of
+    from hybridlog.estimators.log_space import log_sum_exp, log_sum_exp_of
 
     array = np.array(values)
     members = np.array(
@@ -279,15 +279,9 @@ def test_a_log_sum_exp_over_the_possible_terms_is_the_whole_one_to_the_bit(
 
 
 SMOOTHERS_STEPS = {
-    "smoother_kernels": (
-        "safe_log",
-        "log_sum_exp",
-        "log_sum_exp_of",
-        "unpack_state",
-        "note_fallbacks",
-        "_mixed_probe",
-        "_mixed_probe_of",
-    ),
+    "log_space": ("safe_log", "log_sum_exp", "log_sum_exp_of"),
+    "rts_steps": ("unpack_state", "note_fallbacks"),
+    "kim_loop": ("mixed_probe", "mixed_probe_of"),
     "mode_hypotheses": ("note_weight",),
 }
 
@@ -296,7 +290,7 @@ SMOOTHERS_STEPS = {
 def test_the_offline_passes_small_steps_take_no_reference_counts(
     module: str, names: tuple[str, ...]
 ) -> None:
-    """Kim's backward loop (``smoother_kernels._kim_rows``) runs without numba's reference
+    """Kim's backward loop (``kim_loop._kim_rows``) runs without numba's reference
     counts, as the IMM's; its small steps, compiled with them, took and dropped one on each array
     they were given (``log_sum_exp`` of a row of ``log p_ij``, 1.7x its pass on nine mode
     pairs with the other counts), as ``kbest``'s ``note_weight`` in its search."""
@@ -312,7 +306,8 @@ def test_the_offline_passes_small_steps_take_no_reference_counts(
 
 
 OFFLINE_LOOPS = {
-    "smoother_kernels": ("_kim_rows", "_ec_rows"),
+    "kim_loop": ("_kim_rows",),
+    "ec_loop": ("_ec_rows",),
     "imm": ("_imm_rows",),
     "hstf": ("_hstf_rows",),
 }
@@ -325,7 +320,7 @@ def test_the_generic_loops_are_compiled_without_reference_counts(
 ) -> None:
     """Each generic loop is compiled into its allocating caller without numba's runtime.
 
-    Expectation correction's pass (``smoother_kernels.ec_backward``) took and dropped an atomic
+    Expectation correction's pass (``ec_loop.ec_backward``) took and dropped an atomic
     reference on every array its steps were given and every view it sliced (a pair's
     ``x_pair[i, j]``, ``store.states[k, i]``), as Kim's did before ``_kim_rows``: its loop
     is now ``_ec_rows``, 1.2-1.4x faster on the tank's 9 and the ladder's 16 mode pairs.

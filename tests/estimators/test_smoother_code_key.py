@@ -1,22 +1,26 @@
 """The smoothers' generated code is keyed by every module whose code or constants shape it.
 
-The straight-line backward passes (``smoother_source.py``) write
+The straight-line backward passes (``smoother_source.py`` then) write
 ``kernels.PSD_TOLERANCE``'s value into their source and lay out their records with
 ``common.packed_width`` and ``common.upper_pairs``, but their cache key named
 ``smoother_source``, ``smoother_kernels`` and ``unrolled`` only: a change to either module
-kept the generated passes of every cached model as they were.
+kept the generated passes of every cached model as they were.  Since that writer was split
+(``kim_source.py``, ``ec_source.py`` and the modules they write with: ``rts_source.py``,
+``generated_helpers.py``, ``backward_frame.py``, ``branch_tuples.py``), each module that
+writes a pass's source is keyed, and so is every module it imports from.
 """
 
 from __future__ import annotations
 
 import ast
+import importlib
 import inspect
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from hybridlog.estimators import smoother_source, smoothing
+from hybridlog.estimators import smoothing
 from hybridlog.model.compiled import CODE_MODULES
 from hybridlog.model.loader import load_model
 
@@ -35,6 +39,30 @@ def _imported(module: object) -> set[str]:
         and node.module is not None
         and node.module.startswith("hybridlog.")
     }
+
+
+def _writes_source(name: str) -> bool:
+    """Whether module ``name`` writes source: it imports ``unrolled.Program``."""
+    tree = ast.parse(inspect.getsource(importlib.import_module(name)))
+    return any(
+        isinstance(node, ast.ImportFrom)
+        and node.module == "hybridlog.estimators.unrolled"
+        and any(alias.name == "Program" for alias in node.names)
+        for node in ast.walk(tree)
+    )
+
+
+def _writers(name: str) -> set[str]:
+    """``name`` and the modules it imports from, transitively, that write source too."""
+    found: set[str] = set()
+    todo = [name]
+    while todo:
+        module = todo.pop()
+        if module in found:
+            continue
+        found.add(module)
+        todo += [m for m in _imported(importlib.import_module(module)) if _writes_source(m)]
+    return found
 
 
 @pytest.mark.parametrize("ec", [False, True])
@@ -61,4 +89,8 @@ def test_the_smoothers_code_is_keyed_by_the_modules_it_takes_from(
             kernel="unrolled",
         )
     keyed_by = set(raised.value.args[0])
-    assert _imported(smoother_source) - set(CODE_MODULES) <= keyed_by
+    writers = _writers(f"hybridlog.estimators.{'ec_source' if ec else 'kim_source'}")
+    assert len(writers) == (6 if ec else 5)  # ec_source takes LINEAR_FLOOR from kim_source
+    for writer in writers:
+        assert writer in keyed_by
+        assert _imported(importlib.import_module(writer)) - set(CODE_MODULES) <= keyed_by

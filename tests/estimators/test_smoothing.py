@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import DivergenceError
-from hybridlog.estimators import smoother_kernels, smoothing
+from hybridlog.estimators import kim_loop, smoothing
 from hybridlog.estimators.common import ModeStore, packed_width, run_filter
 from hybridlog.estimators.imm import (
     CODE,
@@ -21,7 +21,8 @@ from hybridlog.estimators.imm import (
     transition_matrix,
 )
 from hybridlog.estimators.result import Fallbacks
-from hybridlog.estimators.smoother_kernels import unpack_state, viterbi
+from hybridlog.estimators.rts_steps import unpack_state
+from hybridlog.estimators.viterbi_path import viterbi
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
 from hybridlog.model.loader import load_model, parse_model
 from hybridlog.simulate import simulate
@@ -428,7 +429,7 @@ def test_skipping_negligible_next_modes_changes_nothing(monkeypatch):
     options = ImmOptions(smooth=True, smoother="kim")
     skipping = run_imm(model, signals, options, kernel="unrolled", store_covariances=True)
     looped = run_imm(model, signals, options, jit=False, kernel="loops", store_covariances=True)
-    monkeypatch.setattr(smoother_kernels, "NEGLIGIBLE_WEIGHT", 0.0)
+    monkeypatch.setattr(kim_loop, "NEGLIGIBLE_WEIGHT", 0.0)
     every = run_imm(model, signals, options, jit=False, kernel="loops", store_covariances=True)
     skipped = (every.mode_probabilities[1:] < 1e-30).mean()
     assert skipped > 0.2, skipped
@@ -470,7 +471,7 @@ u = "sin(t)"
 
 @pytest.mark.parametrize("smoother", ["kim", "ec"])
 def test_straight_line_smoother_of_six_states_compiles_and_equals_the_generic_loop(smoother):
-    """A step's values travel as one tuple bound in each branch (``_bind``): with 6 states that
+    """A step's values travel as one tuple bound in each branch (``bind``): with 6 states that
     is 6 + 21 + 6 = 33 entries, past the 30 CPython writes as one tuple display (longer ones are
     built through a list), and numba's rewrite of that list refused a name assigned in two
     branches: an ``AssertionError`` compiling the pass of every 6-state model, to which

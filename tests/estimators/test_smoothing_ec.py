@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from hybridlog.errors import DivergenceError
-from hybridlog.estimators import smoother_kernels, smoothing
+from hybridlog.estimators import ec_loop, ec_source, rts_steps, smoothing
 from hybridlog.estimators.common import FilterBuffers, ModeStore, contiguous, run_filter
 from hybridlog.estimators.imm import CODE, ImmOptions, ImmSettings, run_imm, transition_matrix
 from hybridlog.estimators.vouch import surprise_limit
@@ -130,14 +130,14 @@ def _ec_pass(model, signals, kernel, ceilings=None):
         contiguous(signals.inputs),
         transitions,
         contiguous(np.stack([m.process_noise for m in model.modes])),
-        smoother_kernels.positive_definite_noise(model),
-        smoother_kernels.density_ceilings(model) if ceilings is None else ceilings,
+        ec_loop.positive_definite_noise(model),
+        ec_loop.density_ceilings(model) if ceilings is None else ceilings,
         filtered.mode_probabilities,
         store,
         buffers,
-        np.zeros(smoother_kernels.FALLBACKS_WIDTH, dtype=np.int64),
+        np.zeros(rts_steps.FALLBACKS_WIDTH, dtype=np.int64),
     )
-    compile_for(smoother_kernels.ec_backward, arguments)(*arguments)
+    compile_for(ec_loop.ec_backward, arguments)(*arguments)
     return store, filtered, buffers, arguments[-1]
 
 
@@ -158,12 +158,12 @@ def test_the_density_ceiling_bounds_every_pair_density(n, seed, scale, rank):
     F = rng.normal(size=(n, n)) * rng.choice([0.0, 1e-3, 1.0, 10.0])
     A = rng.normal(size=(n, min(rank, n))) * scale
     S = F @ (A @ A.T) @ F.T + Q
-    ceiling = smoother_kernels.density_ceiling(Q)
+    ceiling = ec_loop.density_ceiling(Q)
     sign, log_det = np.linalg.slogdet(S)
     assert sign > 0
     peak = -0.5 * (n * math.log(2 * math.pi) + log_det)
-    assert peak <= ceiling - smoother_kernels.CEILING_MARGIN + 1e-9 * max(1.0, abs(peak))
-    assert smoother_kernels.density_ceiling(np.zeros((n, n))) == math.inf
+    assert peak <= ceiling - ec_loop.CEILING_MARGIN + 1e-9 * max(1.0, abs(peak))
+    assert ec_loop.density_ceiling(np.zeros((n, n))) == math.inf
 
 
 @pytest.mark.parametrize("outliers", [False, True])
@@ -183,7 +183,7 @@ def test_ec_pairs_left_out_unpredicted_change_nothing(outliers):
     _, _, full, full_fallbacks = _ec_pass(model, signals, "unrolled", ceilings=every)
     for field in ("state_means", "covariances", "mode_probabilities"):
         a, b = getattr(bounded, field)[:-1], getattr(full, field)[:-1]
-        tolerance = model.n_modes**2 * smoother_kernels.NEGLIGIBLE_WEIGHT * np.abs(b).max()
+        tolerance = model.n_modes**2 * rts_steps.NEGLIGIBLE_WEIGHT * np.abs(b).max()
         np.testing.assert_allclose(a, b, rtol=1e-12, atol=tolerance, err_msg=field)
     np.testing.assert_array_equal(bounded_fallbacks, full_fallbacks)
     # a bound that is wrong (every pair but the stay left out) shows: the comparison can fail
@@ -198,7 +198,7 @@ def test_ec_equals_the_numpy_reference_on_three_tank_logs(seed):
     """Forward store and backward pass against ``tests/support/ec_reference.py`` (moved from the
     prototype of docs/studies/smoothing_ec.py), on logs where no guard or probe acts."""
     model = load_model("three_tank_hstf")
-    assert smoother_kernels.positive_definite_noise(model).all()
+    assert ec_loop.positive_definite_noise(model).all()
     signals = simulate(model, steps=150, seed=seed).signals(model)
     T = transition_matrix(model, ImmOptions())
     forward = ec_reference.imm_forward(model, signals, T)
@@ -267,7 +267,7 @@ def test_ec_without_process_noise_takes_kims_mode_weights(kernel):
     nearly singular and would decide by rounding, so each next mode takes Kim's weights: the
     smoothed mode probabilities are Kim's (its generic loop: bit for bit)."""
     model = load_model("double_cart_case1")
-    assert not smoother_kernels.positive_definite_noise(model).any()
+    assert not ec_loop.positive_definite_noise(model).any()
     signals = simulate(model, steps=600, seed=0).signals(model)
     ec = run_imm(model, signals, EC, kernel=kernel, store_covariances=True)
     kim = run_imm(model, signals, ImmOptions(smooth=True, smoother="kim"), kernel="loops")
@@ -358,7 +358,7 @@ def test_a_model_of_many_modes_runs_the_generic_expectation_correction():
             '[simulation.inputs]\na = "sin(0.7*t)"\n'
         )
 
-    limit = smoother_kernels.MAX_EC_UNROLLED_MODES
+    limit = ec_source.MAX_EC_UNROLLED_MODES
     many, few = model_of(limit + 1), model_of(limit)
     straight = smoothing.straight_line_backward
     assert not straight(many, "auto", ec=True)

@@ -10,8 +10,8 @@ import pytest
 
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.kernels import cholesky
-from hybridlog.estimators.smoother_kernels import ROUNDING_LIMIT, rts_step, rts_work
-from hybridlog.estimators.smoother_source import _positive_pivots
+from hybridlog.estimators.rts_source import _positive_pivots
+from hybridlog.estimators.rts_steps import ROUNDING_LIMIT, rts_step, rts_work
 from hybridlog.estimators.unrolled import Program
 from hybridlog.model.loader import parse_model
 from hybridlog.simulate import simulate
