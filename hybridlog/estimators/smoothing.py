@@ -181,6 +181,7 @@ from hybridlog.estimators import (
     rts_steps,
     unrolled,
 )
+from hybridlog.estimators import result as result_module
 from hybridlog.estimators.common import (
     FilterBuffers,
     FilterRun,
@@ -424,7 +425,8 @@ def _backward_pass(
             name,
             lambda: module_source(model, generate(model)),
             # every module whose code or constants the source takes: kernels' PSD_TOLERANCE
-            # is written into it, common's packed_width and upper_pairs lay out its records
+            # is written into it, common's packed_width and upper_pairs lay out its records,
+            # result's FALLBACK_CAUSES make rts_steps' FALLBACK_WEIGHT
             tuple(
                 m.__name__
                 for m in (
@@ -436,6 +438,7 @@ def _backward_pass(
                     branch_tuples,
                     rts_steps,
                     ec_loop,
+                    result_module,
                     unrolled,
                     kernels,
                     common,

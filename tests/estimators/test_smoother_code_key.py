@@ -7,7 +7,10 @@ The straight-line backward passes (``smoother_source.py`` then) write
 kept the generated passes of every cached model as they were.  Since that writer was split
 (``kim_source.py``, ``ec_source.py`` and the modules they write with: ``rts_source.py``,
 ``generated_helpers.py``, ``backward_frame.py``, ``branch_tuples.py``), each module that
-writes a pass's source is keyed, and so is every module it imports from.
+writes a pass's source is keyed, and so is every module it imports from, and every module
+whose constants decide the value of a constant a writer imports (``backward_frame`` writes
+``rts_steps.FALLBACK_WEIGHT``, which is ``1 + len(result.FALLBACK_CAUSES)``: ``result.py`` was
+not keyed).
 """
 
 from __future__ import annotations
@@ -94,3 +97,39 @@ def test_the_smoothers_code_is_keyed_by_the_modules_it_takes_from(
     for writer in writers:
         assert writer in keyed_by
         assert _imported(importlib.import_module(writer)) - set(CODE_MODULES) <= keyed_by
+        for module, constant in _constants_imported(writer):
+            assert _made_from(module, constant) <= keyed_by, (writer, constant)
+
+
+def _constants_imported(name: str) -> set[tuple[str, str]]:
+    """The package's upper-case names module ``name`` imports, with the module of each."""
+    tree = ast.parse(inspect.getsource(importlib.import_module(name)))
+    return {
+        (node.module, alias.name)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.ImportFrom)
+        and node.module is not None
+        and node.module.startswith("hybridlog.")
+        for alias in node.names
+        if alias.name.isupper()
+    }
+
+
+def _made_from(module: str, constant: str) -> set[str]:
+    """The modules whose text decides ``constant``'s value: its own, and those of the
+    constants its assignment reads that it imports (``rts_steps.FALLBACK_WEIGHT`` is
+    ``1 + len(result.FALLBACK_CAUSES)``), transitively."""
+    found = {module}
+    tree = ast.parse(inspect.getsource(importlib.import_module(module)))
+    read = {
+        name.id
+        for node in tree.body
+        if isinstance(node, ast.Assign | ast.AnnAssign)
+        and constant in {t.id for t in ast.walk(node) if isinstance(t, ast.Name)}
+        for name in ast.walk(node.value if node.value is not None else node)
+        if isinstance(name, ast.Name) and name.id != constant
+    }
+    for source, name in _constants_imported(module):
+        if name in read:
+            found |= _made_from(source, name)
+    return found
