@@ -201,3 +201,33 @@ def test_a_report_whose_undetermined_switches_disagree_is_refused(
 
     with pytest.raises(ReportError, match=key):
         ReportReader("r.json").detection(data, "modes.detection")
+
+
+def test_a_smoothed_run_says_its_undetermined_switches_on_both_sides() -> None:
+    import dataclasses
+
+    from hybridlog.report.build import build_report
+    from hybridlog.report.document import Report
+    from hybridlog.report.markdown import render_markdown
+    from tests.report.test_plot_data import _run
+
+    result, signals = _run(600, seed=3, smoothed=True)
+    # a switch every 3 samples, and the sample after each without a true mode: each window
+    # is the switch's own sample
+    truth = np.repeat(np.arange(200) % 2, 3)
+    truth[1::3] = NO_TRUE_MODE
+    gappy = dataclasses.replace(signals, truth_modes=truth)
+    report = build_report(result, gappy, log="l", model_name="m", dt=1.0)
+    assert report.smoothing is not None and report.modes.detection is not None
+    filtered, smoothed = report.smoothing.filtered, report.smoothing.smoothed
+    assert smoothed.undetermined == report.modes.detection.undetermined > 0
+    assert filtered.undetermined > 0
+    assert smoothed.missed == report.modes.detection.missed
+    data = json.loads(report.to_json())["smoothing"]
+    assert [data[side]["undetermined"] for side in ("filtered", "smoothed")] == [
+        filtered.undetermined,
+        smoothed.undetermined,
+    ]
+    row = f"| true switches undetermined | {filtered.undetermined} | {smoothed.undetermined} |"
+    assert row in render_markdown(report)
+    assert Report.from_json(report.to_json()).smoothing == report.smoothing
