@@ -91,8 +91,10 @@ def summary_line(report: Report) -> str:
         text += f" (filtered {percent(_percent(smoothing.filtered.mode_accuracy), 1)})"
     detection = report.modes.detection
     if detection is not None:
-        switches = plural(detection.detected + detection.missed, "true switch")
+        switches = plural(len(detection.events), "true switch")
         text += f", {switches}: {detection.detected:,} detected, {detection.missed:,} missed"
+        if detection.undetermined:  # the true mode's gaps: neither detected nor missed
+            text += f", {detection.undetermined:,} undetermined"
     fallbacks = None if smoothing is None else smoothing.fallbacks
     if fallbacks is not None and fallbacks.samples:  # part of the "smoothed" estimate is not
         text += f"; {fallbacks.summary()}"

@@ -247,7 +247,8 @@ def align_signals(
         Filled with the signals that start the grid late or end it early by more than
         ``max_gap`` (``span``), the pieces (``segments``) and the one analysed when
         ``split_gaps`` cut the log, and per output the grid points bridged across short
-        gaps (``bridged``: ``{symbol: {points, of}}``), per true state the same
+        gaps (``bridged``: ``{symbol: {points, of, every, steps}}``, the last two of
+        :func:`~hybridlog.io.alignment_notes.sampled_every`), per true state the same
         (``truth_bridged``), per input and output sampled faster than the grid its
         samples on the grid's span and the grid's points (``faster``: ``{symbol: {kind,
         samples, points}}``), per input its longest hold over ``max_gap`` (``held``:
@@ -260,9 +261,9 @@ def align_signals(
         stretches without a sample (longer than ``dt``, whatever ``max_gap``) leave their grid
         points more than
         ``dt/2`` from every sample without a true mode, recorded as ``truth_gaps``:
-        ``{"mode" | "mode.<component>": {start, end, seconds, gaps, points, of}}`` (the
-        longest stretch, how many there are, the grid points left without a true mode, all
-        grid points).
+        ``{"mode" | "mode.<component>": {start, end, seconds, gaps, points, of, every,
+        steps}}`` (the longest stretch, how many there are, the grid points left without a
+        true mode, all grid points, and how often it is sampled, as ``bridged``).
     field_word:
         What the log calls a series in messages: ``"column"`` (tables) or ``"field"``
         (message paths; :attr:`~hybridlog.io.source.SourceInfo.field_word`).
@@ -371,8 +372,11 @@ def align_signals(
         codes_of[label] = codes
         if notes is None:
             continue
-        if gaps is not None:
-            notes.setdefault("truth_gaps", {})[label] = gaps
+        if gaps is not None:  # with how often it was sampled: the gaps' cause, as an output's
+            notes.setdefault("truth_gaps", {})[label] = {
+                **gaps,
+                **sampled_every(label_series.time_ns, grid, dt_ns),
+            }
         held = (  # a record of the switches: held however long, and the metrics score the hold
             longest_hold(label_series.time_ns, grid, dt_ns, max_gap_ns)
             if records_switches(label_series.codes)
@@ -405,6 +409,7 @@ def align_signals(
                 notes.setdefault("truth_bridged", {})[state] = {
                     "points": int(bridged.size),
                     "of": n,
+                    **sampled_every(truth_series.time_ns, grid, dt_ns),
                 }
             x_true[:, j] = values
             x_true[too_long, j] = np.nan

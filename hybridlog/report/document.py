@@ -56,11 +56,17 @@ never left out).
 for them.  ``modes.detection`` (``null`` without a true mode) holds the details behind
 ``detection_delay_s`` (their mean): ``{mean_s, max_s, detected, missed, events: [{t, from,
 to, detected, detected_t, delay_s, miss_reason}]}``, see
-:func:`hybridlog.report.mode_metrics.detection_delays`.
+:func:`hybridlog.report.mode_metrics.detection_delays`.  Where a gap in a sampled true mode
+cuts a switch's window short before the estimate changed into the new mode, the switch is
+neither detected nor missed: ``detection`` then has ``undetermined`` (their number, after
+``missed``, which counts the definite misses only) and such an event ``undetermined_reason``
+(``miss_reason`` ``null``), as do ``smoothing``'s sides (and their ``components``) an
+``undetermined`` count; each key is absent where there is none, so a report of a log with
+its whole true mode reads as before.
 
 Reports written by earlier versions lack ``fit``, ``compile_s``, ``notes``,
 ``null_reasons``, ``outputs.<y>.samples``, ``states.<x>.samples``, ``modes.samples``,
-``miss_reason`` or ``smoothing.fallbacks``; they
+``miss_reason``, ``undetermined`` or ``smoothing.fallbacks``; they
 are read with ``None`` (or empty) in their place.
 """
 

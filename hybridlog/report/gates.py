@@ -607,12 +607,25 @@ def _which_side(report: Report, name: str) -> str:
 
 
 def _over_part(report: Report, name: str) -> str:
-    """For a mode accuracy scored over part of the log, over which samples (else ``""``).
+    """A mode metric over part of the log: its samples, or the switches left undetermined.
 
     A true mode that starts late is scored from its first sample on: ``mode_accuracy = 1 is
-    under ...`` would read as the whole log's (:mod:`hybridlog.report.coverage`).
+    under ...`` would read as the whole log's (:mod:`hybridlog.report.coverage`).  Likewise
+    ``missed_switches`` counts the definite misses only: where the true mode's gaps leave some
+    switches undetermined, how many (``met (missed_switches = 0)`` read as every switch
+    detected).
     """
     base, dot, qualifier = name.partition(".")
+    if base == "missed_switches":
+        modes = report.modes.components.get(qualifier) if dot else report.modes
+        detection = None if modes is None else modes.detection
+        if detection is None or not detection.undetermined:
+            return ""
+        return (
+            f" (not counting {detection.undetermined:,} undetermined true "
+            f"{'switch' if detection.undetermined == 1 else 'switches'}: the true mode's gaps "
+            "cut their windows short)"
+        )
     if base != "mode_accuracy":
         return ""
     part = component_coverage(report, qualifier) if dot else mode_coverage(report)

@@ -323,7 +323,33 @@ def render_markdown(report: Report) -> str:
         lines += [f"- {escape_markdown(note)}" for note in notes]
     lines += ["", "## How the metrics are defined", ""]
     lines += [f"- {text}" for text in DEFINITIONS]
+    if _undetermined_anywhere(report):
+        lines.append(f"- {UNDETERMINED_DEFINITION}")
     return "\n".join(lines) + "\n"
+
+
+UNDETERMINED_DEFINITION = (
+    "Undetermined: a true switch not detected before the true mode's record stops (a sample "
+    "without a true mode, in a gap of it) is neither detected nor missed: the log cannot say "
+    "whether the estimate changed into the new mode after that, before the truth left it. "
+    "Such switches are counted apart, not among the missed ones (nor in a gate on "
+    "missed_switches); a detection before the record stops counts, with its delay."
+)
+"""report.md's definition of an undetermined switch, given where a report has one."""
+
+
+def _undetermined_anywhere(report: Report) -> bool:
+    """Whether some true switch of ``report`` (or of a side or component) is undetermined."""
+    modes = [report.modes, *report.modes.components.values()]
+    if any(m.detection is not None and m.detection.undetermined for m in modes):
+        return True
+    smoothing = report.smoothing
+    if smoothing is None:
+        return False
+    sides = (smoothing.filtered, smoothing.smoothed)
+    return any(
+        side.undetermined or any(c.undetermined for c in side.components.values()) for side in sides
+    )
 
 
 def _warnings_lines(notes: tuple[str, ...]) -> list[str]:
@@ -508,6 +534,11 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
     rows: list[tuple[str, float | int | None, float | int | None, str]] = [
         ("mode accuracy (%)", percent(f.mode_accuracy), percent(s.mode_accuracy), ".4g"),
         ("true switches missed", f.missed, s.missed, "d"),
+        *(
+            [("true switches undetermined", f.undetermined, s.undetermined, "d")]
+            if f.undetermined or s.undetermined
+            else []
+        ),
         ("detection delay, mean (s)", f.detection_delay_s, s.detection_delay_s, ".6g"),
         ("detection delay, max (s)", f.detection_max_s, s.detection_max_s, ".6g"),
         ("estimated mode switches", f.estimated_switches, s.estimated_switches, "d"),
@@ -539,6 +570,15 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
                     f"component {c}: true switches missed",
                     None if own is None else own.missed,
                     side.missed,
+                    "d",
+                )
+            )
+        if side.undetermined or (own is not None and own.undetermined):
+            rows.append(
+                (
+                    f"component {c}: true switches undetermined",
+                    None if own is None else own.undetermined,
+                    side.undetermined,
                     "d",
                 )
             )
@@ -646,10 +686,17 @@ def _truth_lines(modes: ModeReport, accuracy: float, samples: int) -> list[str]:
     det = modes.detection
     events = det.events if det is not None else ()
     detected, missed = (det.detected, det.missed) if det is not None else (0, 0)
+    undetermined = det.undetermined if det is not None else 0
     delay = modes.detection_delay_s
     lines = [
         f"- mode accuracy: {_accuracy(accuracy)}" + _scored_samples(modes, samples),
         f"- {plural(len(events), 'true mode switch')}: {detected:,} detected, {missed:,} missed"
+        + (
+            f", {undetermined:,} undetermined (the true mode's record stops before they could "
+            "be told detected or missed)"
+            if undetermined
+            else ""
+        )
         + (
             f"; detection delay mean {format_number(delay)} s, "
             f"max {format_number(det.max_s if det is not None else None)} s"
@@ -662,7 +709,12 @@ def _truth_lines(modes: ModeReport, accuracy: float, samples: int) -> list[str]:
         lines.append("|---:|---|---|---:|")
         for e in events[:MAX_LISTED_SWITCHES]:
             found = e.detected_t
-            when = format_time(found) if found is not None else f"missed: {e.miss_reason}"
+            if found is not None:
+                when = format_time(found)
+            elif e.undetermined_reason is not None:
+                when = f"undetermined: {e.undetermined_reason}"
+            else:
+                when = f"missed: {e.miss_reason}"
             lines.append(
                 f"| {format_time(e.t)} "
                 f"| {escape_markdown(e.from_mode)} → {escape_markdown(e.to_mode)} "

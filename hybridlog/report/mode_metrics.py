@@ -4,7 +4,8 @@ Pure functions over arrays of mode indices (and the sample times), for report.js
 ``modes`` block (SPEC §8): mode accuracy over all samples; detection delay from each true
 switch to the first estimated change *into* the new mode at or after it, before the next
 true switch (an estimate already in that mode before the switch has not detected it: a
-miss).  They never warn, print or touch files; output and state metrics are
+miss; one whose window a gap in the true mode cuts short is undetermined, not missed).
+They never warn, print or touch files; output and state metrics are
 :mod:`hybridlog.report.metrics`.
 """
 
@@ -226,12 +227,18 @@ class SwitchDetection:
         the next true switch; ``None`` when there is none, or when the estimate was already
         in ``to_mode`` before ``t`` (a missed switch).
     miss_reason:
-        Why the switch counts as missed (one sentence), ``None`` when it was detected.
+        Why the switch counts as missed (one sentence), ``None`` when it was detected or is
+        undetermined.
     delay_s:
         Detection delay in seconds, ``None`` when missed; by default ``detected_t - t``.
         On the model's grid ``t0 + k*dt`` it is given as the steps between the two samples
         times ``dt`` (see :func:`detection_delays`), which the difference of two absolute
         times cannot hold: a Unix time of 1.7e9 s is stored to 2.4e-7 s.
+    undetermined_reason:
+        Why the log cannot say whether the switch was detected (one sentence): no estimated
+        change into ``to_mode`` came before the true mode's record stops (a sample without
+        one), and the estimate may have changed into it after that, before the truth left
+        the mode.  ``None`` when the switch was detected or missed.
 
     """
 
@@ -241,9 +248,16 @@ class SwitchDetection:
     detected_t: float | None
     miss_reason: str | None = None
     delay_s: float | None = None
+    undetermined_reason: str | None = None
 
     def __post_init__(self) -> None:
         """Fill in ``delay_s`` from the times; refuse a delay of a missed switch."""
+        if self.undetermined_reason is not None and (
+            self.detected_t is not None or self.miss_reason is not None
+        ):
+            raise ValueError(
+                f"an undetermined switch (t={format_time(self.t)} s) is neither detected nor missed"
+            )
         if self.detected_t is None:
             if self.delay_s is not None:
                 raise ValueError(
@@ -256,6 +270,16 @@ class SwitchDetection:
     def detected(self) -> bool:
         """Whether an estimated change into the new mode detected the switch."""
         return self.detected_t is not None
+
+    @property
+    def undetermined(self) -> bool:
+        """Whether the log cannot say if the switch was detected (a gap in the true mode)."""
+        return self.undetermined_reason is not None
+
+    @property
+    def missed(self) -> bool:
+        """Whether the switch was definitely not detected (neither detected nor undetermined)."""
+        return not self.detected and not self.undetermined
 
 
 @dataclass(frozen=True)
@@ -283,8 +307,13 @@ class DetectionDelays:
 
     @property
     def missed(self) -> int:
-        """Number of true switches not detected (see :func:`detection_delays`)."""
-        return len(self.events) - self.detected
+        """Number of true switches definitely not detected (see :func:`detection_delays`)."""
+        return sum(1 for e in self.events if e.missed)
+
+    @property
+    def undetermined(self) -> int:
+        """Number of true switches the true mode's gaps leave undetermined."""
+        return sum(1 for e in self.events if e.undetermined)
 
     @property
     def mean_s(self) -> float:
@@ -344,6 +373,15 @@ def _miss_reason(
     )
 
 
+def _undetermined_reason(record_stop: float, mode_id: str) -> str:
+    """Why a true switch into ``mode_id`` whose window a gap cut at ``record_stop`` is unknown."""
+    return (
+        f"the estimate had not changed into mode {mode_id} when the true mode's record stops "
+        f"at t={_seconds(record_stop)}, and the log cannot say whether it did before the "
+        "truth left the mode"
+    )
+
+
 def detection_delays(
     time: npt.ArrayLike,
     estimated: npt.ArrayLike,
@@ -369,6 +407,14 @@ def detection_delays(
     of its own recovery.  Such a switch, and one the estimate never changes into ``m`` for,
     is *missed*: counted, given a reason, and not given a delay.
 
+    A window the truth's gaps cut short (it ends at a sample without a true mode, see
+    ``known``) is not the switch's whole window: a change into ``m`` inside it detects the
+    switch, with its delay, but where none came the log cannot say whether one came after
+    the cut, before the truth left ``m``.  Such a switch is *undetermined*: neither detected
+    nor missed, counted apart, given a reason (:attr:`SwitchDetection.undetermined_reason`).
+    The window is never extended across the gap on the guess that the truth stayed in ``m``.
+    An estimate that already sat in ``m`` before the switch missed it whatever follows.
+
     Parameters
     ----------
     time:
@@ -388,7 +434,8 @@ def detection_delays(
         looked at elsewhere.  A true switch is one between two samples with a true mode:
         where the truth resumes after samples without one in another mode, it switched at
         an unknown time, which no delay can be measured from (no event).  A switch's window
-        ends at the first sample without a true mode after it too, as at the end of the log.
+        ends at the first sample without a true mode after it too; a switch not detected
+        inside such a cut window is undetermined (above), not missed.
 
     Returns
     -------
@@ -468,14 +515,17 @@ def detection_delays(
         end_known,
         strict=True,
     ):
-        reason = None
-        if k < 0 or sat:
+        reason = undetermined = None
+        cut = have is not None and e_inside and not e_known
+        if k < 0 and not sat and cut:
+            undetermined = _undetermined_reason(t_e, ids[m])
+        elif k < 0 or sat:
             reason = _miss_reason(
                 t_e if e_inside else None,
                 ids[m],
                 t_stay if sat else None,
                 t_k if k >= 0 else None,
-                unknown=have is not None and e_inside and not e_known,
+                unknown=cut,
             )
         detected = k >= 0 and not sat
         events.append(
@@ -486,6 +536,7 @@ def detection_delays(
                 detected_t=t_k if detected else None,
                 miss_reason=reason,
                 delay_s=steps_seconds(k - s, dt) if dt is not None and detected else None,
+                undetermined_reason=undetermined,
             )
         )
     return DetectionDelays(events=tuple(events))

@@ -32,6 +32,13 @@ def _no_delay(modes: ModeReport, of: str = "", *, partial: bool = False) -> str 
         if partial:
             return f"the true mode{of} never switches between two samples that have one"
         return f"the true mode{of} never switches"
+    undetermined = modes.detection.undetermined
+    if undetermined:
+        return (
+            f"no true switch{of} ({len(events)}) was detected: {modes.detection.missed} missed, "
+            f"{undetermined} undetermined (the true mode's record stops before they could be "
+            "told detected or missed)"
+        )
     return f"every true switch{of} ({len(events)}) was missed"
 
 

@@ -118,7 +118,6 @@ def _side(
     estimated, true = where_known(modes, truth, known, scored)
     counts = mode_metrics.confusion_matrix(estimated, true, len(ids))
     det = mode_metrics.detection_delays(signals.time, modes, truth, ids, dt, known=known)
-    detected = sum(1 for e in det.events if e.detected)
     return SmoothingMetrics(
         mode_accuracy=finite_or_none(mode_metrics.mode_accuracy(estimated, true))
         if scored
@@ -129,8 +128,9 @@ def _side(
         },
         detection_delay_s=finite_or_none(det.mean_s),
         detection_max_s=finite_or_none(det.max_s),
-        detected=detected,
-        missed=len(det.events) - detected,
+        detected=det.detected,
+        missed=det.missed,
+        undetermined=det.undetermined,
         estimated_switches=switches,
         states=states,
         outputs=outputs,

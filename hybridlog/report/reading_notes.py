@@ -153,15 +153,20 @@ has gaps all the same: :func:`bridged_cause` asks whether the model's dt is the 
 
 
 def bridged_cause(count: Mapping[str, Any]) -> str:
-    """Why an output was bridged, in words, from its median sample step.
+    """Why an output (a true state, a true mode) has gaps, in words, from its median sample step.
 
-    ``count`` is the output's entry in ``reading.bridged``
-    (:func:`~hybridlog.io.alignment_notes.sampled_every`).  A topic published at a slower rate than
-    the model's (a ROS topic of its own at a third of it) has no sample at most grid points
-    by design; one published at the model's rate lacks samples there.  The warning asked
-    of both whether the model's dt is the log's.
+    ``count`` is the output's entry in ``reading.bridged`` (a true state's in
+    ``reading.truth_bridged``, a true mode's in ``reading.truth_gaps``), with
+    :func:`~hybridlog.io.alignment_notes.sampled_every`'s ``every`` and ``steps``.  A topic
+    published at a slower rate than the model's (a ROS topic of its own at a third of it) has
+    no sample at most grid points by design; one published at the model's rate lacks samples
+    there (where it held NaN cells ``--drop-nonfinite`` dropped, say).  The warning asked of
+    both whether the model's dt is the log's, as it still does of an entry without ``steps``
+    (a report of an earlier version).
     """
-    steps = count["steps"]
+    steps = count.get("steps")
+    if not isinstance(steps, int | float):
+        return "is the model's dt the log's?"
     if steps >= SLOWER_STEPS:
         return f"it is sampled every {count['every']:g} s (median), {steps:g} steps of dt"
     if steps > FASTER_STEPS:
@@ -194,7 +199,7 @@ def report_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     ]
     notes += [
         f"WARNING: true state {symbol} has no sample within dt/2 of {count['points']} of "
-        f"{count['of']} sample times (is the model's dt the log's?): its RMSE leaves them "
+        f"{count['of']} sample times ({bridged_cause(count)}): its RMSE leaves them "
         f"out, and estimates.csv's {symbol}_true is empty there"
         for symbol, count in (reading.get("truth_bridged") or {}).items()
     ]
@@ -264,7 +269,7 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
         f"{gap['of']:,} sample times, {_gap_span(gap)}: it may have switched there unseen, "
         "so those samples have no true mode and are not scored, and no switch is measured "
         "across them (it repeats its label, so it is sampled, not recorded only at its "
-        "switches; is the model's dt the log's?)"
+        f"switches; {bridged_cause(gap)})"
         for label, gap in gaps.items()
     ]
     notes += [

@@ -100,6 +100,13 @@ def _event_dict(event: SwitchDetection) -> JsonObject:
         "detected_t": event.detected_t,
         "delay_s": event.delay_s,
         "miss_reason": event.miss_reason,
+        # only where the true mode's gaps leave it undetermined: a report of a log with its
+        # whole truth reads as before
+        **(
+            {"undetermined_reason": event.undetermined_reason}
+            if event.undetermined_reason is not None
+            else {}
+        ),
     }
 
 
@@ -129,16 +136,25 @@ class Detection:
 
     @property
     def missed(self) -> int:
-        """Number of true switches missed."""
-        return len(self.events) - self.detected
+        """Number of true switches missed (not those undetermined)."""
+        return sum(1 for e in self.events if e.missed)
+
+    @property
+    def undetermined(self) -> int:
+        """Number of true switches the true mode's gaps leave undetermined."""
+        return sum(1 for e in self.events if e.undetermined)
 
     def to_dict(self) -> JsonObject:
-        """The JSON object ``{mean_s, max_s, detected, missed, events}``."""
+        """The JSON object ``{mean_s, max_s, detected, missed, [undetermined], events}``.
+
+        ``undetermined`` only where some switch is (a gap in the true mode).
+        """
         return {
             "mean_s": self.mean_s,
             "max_s": self.max_s,
             "detected": self.detected,
             "missed": self.missed,
+            **({"undetermined": self.undetermined} if self.undetermined else {}),
             "events": [_event_dict(e) for e in self.events],
         }
 
@@ -230,8 +246,8 @@ class ComponentSide:
     """One component's mode metrics on one side (filtered or offline) of a smoothed run.
 
     As the component's :class:`ModeReport` (``modes.components``): the fraction of samples
-    with its mode right, and its true switches detected and missed, the mean and largest
-    delay of those detected (``None`` when none was).
+    with its mode right, and its true switches detected, missed and undetermined (the true
+    mode's gaps), the mean and largest delay of those detected (``None`` when none was).
     """
 
     mode_accuracy: float | None
@@ -239,6 +255,7 @@ class ComponentSide:
     detection_max_s: float | None
     detected: int
     missed: int
+    undetermined: int = 0
 
     @classmethod
     def of(cls, modes: ModeReport) -> ComponentSide:
@@ -250,16 +267,18 @@ class ComponentSide:
             detection_max_s=None if detection is None else detection.max_s,
             detected=0 if detection is None else detection.detected,
             missed=0 if detection is None else detection.missed,
+            undetermined=0 if detection is None else detection.undetermined,
         )
 
     def to_dict(self) -> JsonObject:
-        """The JSON object ``smoothing.<side>.components.<c>``."""
+        """The JSON object ``smoothing.<side>.components.<c>`` (``undetermined`` when > 0)."""
         return {
             "mode_accuracy": self.mode_accuracy,
             "detection_delay_s": self.detection_delay_s,
             "detection_max_s": self.detection_max_s,
             "detected": self.detected,
             "missed": self.missed,
+            **({"undetermined": self.undetermined} if self.undetermined else {}),
         }
 
 
@@ -280,6 +299,10 @@ class SmoothingMetrics:
         or a detected switch.
     detected, missed:
         True switches detected and missed; ``None`` without a true mode.
+    undetermined:
+        True switches the true mode's gaps leave undetermined (neither detected nor missed,
+        :func:`~hybridlog.report.mode_metrics.detection_delays`); in ``report.json`` only when
+        more than 0.
     estimated_switches:
         Changes of the estimated mode (blips count twice).
     states:
@@ -306,6 +329,7 @@ class SmoothingMetrics:
     outputs: Mapping[str, OutputReport] | None
     fit: float | None
     components: Mapping[str, ComponentSide] = field(default_factory=dict)
+    undetermined: int = 0
 
     def to_dict(self) -> JsonObject:
         """The JSON object ``smoothing.filtered`` or ``smoothing.smoothed``."""
@@ -316,6 +340,7 @@ class SmoothingMetrics:
             "detection_max_s": self.detection_max_s,
             "detected": self.detected,
             "missed": self.missed,
+            **({"undetermined": self.undetermined} if self.undetermined else {}),
             "estimated_switches": self.estimated_switches,
             "states": {x: s.to_dict() for x, s in self.states.items()},
             "outputs": None

@@ -214,13 +214,23 @@ class ReportReader:
         delay_s = self.at(data, path, "delay_s", self.optional_number, None)
         if detected_t is None and delay_s is not None:
             raise self.error(f"{path}.delay_s", f"is {delay_s} but detected_t is None")
+        miss_reason = self.at(data, path, "miss_reason", self.or_null(self.string), None)
+        undetermined = self.at(data, path, "undetermined_reason", self.or_null(self.string), None)
+        if undetermined is not None and (detected_t is not None or miss_reason is not None):
+            raise self.error(
+                f"{path}.undetermined_reason",
+                "is set but the switch is "
+                + ("detected" if detected_t is not None else "missed (miss_reason is set)")
+                + "; an undetermined switch is neither",
+            )
         event = SwitchDetection(
             t=self.at(data, path, "t", self.number),
             from_mode=self.at(data, path, "from", self.string),
             to_mode=self.at(data, path, "to", self.string),
             detected_t=detected_t,
-            miss_reason=self.at(data, path, "miss_reason", self.or_null(self.string), None),
+            miss_reason=miss_reason,
             delay_s=delay_s,
+            undetermined_reason=undetermined,
         )
         detected = self.at(data, path, "detected", self.boolean)
         if detected != event.detected:
@@ -231,15 +241,18 @@ class ReportReader:
         return event
 
     def detection(self, value: object, path: str) -> Detection:
-        """``modes.detection``, its ``detected`` and ``missed`` agreeing with its events."""
+        """``modes.detection``, its counts agreeing with its events.
+
+        ``undetermined`` is absent where it is 0 (and from reports of earlier versions).
+        """
         data = self.mapping(value, path)
         detection = Detection(
             mean_s=self.at(data, path, "mean_s", self.optional_number),
             max_s=self.at(data, path, "max_s", self.optional_number),
             events=self.at(data, path, "events", self.list_of(self.event)),
         )
-        for key in ("detected", "missed"):
-            stated = self.at(data, path, key, self.count)
+        for key, default in (("detected", _MISSING), ("missed", _MISSING), ("undetermined", 0)):
+            stated = self.at(data, path, key, self.count, default)
             if stated != getattr(detection, key):
                 raise self.error(
                     f"{path}.{key}", f"is {stated} but the events say {getattr(detection, key)}"
@@ -338,6 +351,7 @@ class ReportReader:
             detection_max_s=self.at(data, path, "detection_max_s", self.optional_number),
             detected=self.at(data, path, "detected", self.or_null(self.count)),
             missed=self.at(data, path, "missed", self.or_null(self.count)),
+            undetermined=self.at(data, path, "undetermined", self.count, 0),
             estimated_switches=self.at(data, path, "estimated_switches", self.count),
             states=self.at(data, path, "states", self.map_of(self.state)),
             outputs=outputs,
@@ -359,6 +373,8 @@ class ReportReader:
             )
         if (metrics.detected is None) != (metrics.missed is None):
             raise self.error(f"{path}.missed", "must be null exactly when detected is")
+        if metrics.detected is None and metrics.undetermined:
+            raise self.error(f"{path}.undetermined", "is set but detected is null")
         return metrics
 
     def component_side(self, value: object, path: str) -> ComponentSide:
@@ -370,6 +386,7 @@ class ReportReader:
             detection_max_s=self.at(data, path, "detection_max_s", self.optional_number),
             detected=self.at(data, path, "detected", self.count),
             missed=self.at(data, path, "missed", self.count),
+            undetermined=self.at(data, path, "undetermined", self.count, 0),
         )
 
     def smoothing(

@@ -42,6 +42,7 @@ def test_a_blank_stretch_of_the_true_mode_is_not_scored_and_is_said(tmp_path: Pa
     assert (whole["samples"], modes["samples"]) == (301, 220)
     assert report["reading"]["truth_gaps"] == {
         "mode": {"start": 99.0, "end": 181.0, "seconds": 82.0, "gaps": 1, "points": 81, "of": 301}
+        | {"every": 1.0, "steps": 1.0}
     }
     assert "truth_held" not in report["reading"]
     # the confusion is the whole log's less the samples blanked (estimates of 100..180 s)
@@ -128,6 +129,7 @@ def test_rows_missing_around_a_switch_leave_the_true_mode_unscored_there(
     report = json.loads((out / "report.json").read_text())
     assert report["reading"]["truth_gaps"] == {
         "mode": {"start": 19.0, "end": 23.0, "seconds": 4.0, "gaps": 1, "points": 3, "of": 51}
+        | {"every": 1.0, "steps": 1.0}
     }
     modes = report["modes"]
     assert modes["samples"] == 48  # was 51

@@ -54,6 +54,7 @@ def test_a_sampled_true_mode_has_no_true_mode_over_a_gap_longer_than_max_gap() -
     np.testing.assert_array_equal(modes, want)
     np.testing.assert_array_equal(valve, want)
     gap = {"start": 10.2, "end": 19.6, "seconds": 9.4, "gaps": 1, "points": 9, "of": 41}
+    gap |= {"every": 1.0, "steps": 1.0}  # how often it is sampled: the gap's cause
     assert notes["truth_gaps"] == {"mode": gap, "mode.valve": gap}
     assert "truth_held" not in notes
     assert first_uncovered(modes) == 11
@@ -66,8 +67,8 @@ def test_a_sampled_true_mode_has_no_true_mode_over_a_gap_longer_than_max_gap() -
         "WARNING: the true mode has no sample within dt/2 of 9 of 41 sample times, from "
         "t = 10.2 to 19.6 s (9.4 s): it may have switched there unseen, so those samples "
         "have no true mode and are not scored, and no switch is measured across them (it "
-        "repeats its label, so it is sampled, not recorded only at its switches; is the "
-        "model's dt the log's?)"
+        "repeats its label, so it is sampled, not recorded only at its switches; it is "
+        "sampled every dt, with samples missing there)"  # was "is the model's dt the log's?"
     ]
 
 
@@ -87,6 +88,7 @@ def test_a_sampled_true_mode_that_ends_early_has_none_after_its_last_sample() ->
     assert (modes[:21] != NO_TRUE_MODE).all() and (modes[21:] == NO_TRUE_MODE).all()
     assert notes["truth_gaps"]["mode"] == {
         "start": 20.0, "end": 40.0, "seconds": 20.0, "gaps": 1, "points": 20, "of": 41,
+        "every": 1.0, "steps": 1.0,
     }  # fmt: skip
     # ending within max_gap of the log's end: none after its last sample either
     notes = {}
@@ -106,6 +108,7 @@ def test_several_gaps_are_counted() -> None:
     assert int(np.count_nonzero(modes == NO_TRUE_MODE)) == 4 * 8
     assert notes["truth_gaps"]["mode"] == {
         "start": 1.0, "end": 10.0, "seconds": 9.0, "gaps": 4, "points": 32, "of": 41,
+        "every": 5.0, "steps": 5.0,
     }  # fmt: skip
 
 
@@ -152,6 +155,7 @@ def test_a_short_gap_of_a_sampled_true_mode_is_not_held() -> None:
     np.testing.assert_array_equal(modes, want)  # was a at 20..22 s, the switch at 23 s
     np.testing.assert_array_equal(valve, want)  # a component's true mode by the same rule
     gap = {"start": 19.0, "end": 23.0, "seconds": 4.0, "gaps": 1, "points": 3, "of": 41}
+    gap |= {"every": 1.0, "steps": 1.0}
     assert notes["truth_gaps"] == {"mode": gap, "mode.valve": gap}
     assert first_uncovered(modes) == 20
     said = [n for n in report_reading_notes(notes) if "the true mode " in n]
@@ -176,6 +180,8 @@ def test_a_true_mode_sampled_every_other_step_has_none_between_its_samples() -> 
     assert (modes[1::2] == NO_TRUE_MODE).all()
     assert notes["truth_gaps"]["mode"]["gaps"] == 20
     assert notes["truth_gaps"]["mode"]["points"] == 20
+    (said,) = [n for n in report_reading_notes(notes) if "the true mode " in n]
+    assert said.endswith("switches; it is sampled every 2 s (median), 2 steps of dt)")
     # every 1.5 dt: every point is within dt/2 of a sample, and takes the nearest
     notes = {}
     seconds = np.arange(0.0, 41.0, 1.5)  # to 40.5 s, half a step past the last point

@@ -620,7 +620,7 @@ def test_true_states_bridged_across_short_gaps_are_counted_and_reported() -> Non
     assert aligned.truth_states is not None
     # the points without a sample are not the truth: NaN, so no RMSE scores them
     np.testing.assert_array_equal(aligned.truth_states[3:7, 0], [3, np.nan, np.nan, 6])
-    assert notes == {"truth_bridged": {"x1": {"points": 2, "of": 11}}}
+    assert notes == {"truth_bridged": {"x1": {"points": 2, "of": 11, "every": 1.0, "steps": 1.0}}}
     (warning,) = report_reading_notes(notes)
     assert warning.startswith("WARNING: true state x1 has no sample within dt/2 of 2 of 11")
 

@@ -29,8 +29,10 @@ def test_a_switch_across_a_gap_has_no_event_and_a_window_stops_at_a_gap() -> Non
     det = mode_metrics.detection_delays(time, estimated, truth, IDS, 1.0, known=truth != X)
     switch_2, switch_9 = det.events  # 1 -> 0 across 4..6 happened at an unknown time: none
     assert (switch_2.t, switch_2.detected_t) == (2.0, None)  # no change into b before 4
-    assert switch_2.miss_reason == (
-        "the estimate never changed into mode b before the true mode's record stops at t=4 s"
+    assert switch_2.miss_reason is None  # undetermined, not missed (test_undetermined_switches)
+    assert switch_2.undetermined_reason == (
+        "the estimate had not changed into mode b when the true mode's record stops at t=4 s, "
+        "and the log cannot say whether it did before the truth left the mode"
     )  # its change into b at 5 s is in the gap, where the truth may have left b: not a hit
     assert (switch_9.t, switch_9.delay_s) == (9.0, 1.0)  # after the gap: measured
 

@@ -140,3 +140,50 @@ def test_the_warning_says_an_output_is_a_slower_topic_not_that_dt_may_be_wrong()
     assert "(it is sampled every 0.2 s (median), 2 steps of dt): " in y2_note
     assert "(it is sampled every 0.3 s (median), 3 steps of dt): " in y3_note
     assert not any("is the model's dt the log's?" in note for note in (y1_note, y2_note, y3_note))
+
+
+def test_true_state_gaps_drop_nonfinite_made_are_said_so_not_blamed_on_dt(
+    tmp_path: Path,
+) -> None:
+    """NaN cells of a true state ``--drop-nonfinite`` dropped: sampled every dt, some missing.
+
+    The true state's warning asked "is the model's dt the log's?" whatever made its gaps,
+    where the output's, by the same median sample step, said the real cause.
+    """
+    from hybridlog.io.options import ReadOptions
+
+    with TANK_CSV.open(newline="") as handle:
+        header, *rows = list(csv.reader(handle))
+    for k in (50, 51, 120):
+        rows[k][header.index("y1")] = "nan"
+    for k in (60, 61, 62, 150):
+        rows[k][header.index("x1")] = "nan"
+    log = tmp_path / "nan_cells.csv"
+    with log.open("w", newline="") as handle:
+        csv.writer(handle).writerows([header, *rows])
+    report = analyze(
+        log,
+        "three_tank_hstf",
+        estimator="imm",
+        out_dir=tmp_path / "out",
+        read=ReadOptions(drop_nonfinite=True),
+    ).report
+    assert report.reading is not None
+    assert report.reading["truth_bridged"]["x1"] == {
+        "points": 4,
+        "of": 301,
+        "every": 1.0,
+        "steps": 1.0,
+    }
+    cause = "(it is sampled every dt, with samples missing there)"
+    (output,) = [n for n in report.notes if n.startswith("WARNING: output y1 ")]
+    (state,) = [n for n in report.notes if n.startswith("WARNING: true state x1 ")]
+    assert cause in output and cause in state
+    assert "is the model's dt the log's?" not in state
+
+
+def test_a_gap_entry_of_an_earlier_version_without_its_step_still_asks_about_dt() -> None:
+    from hybridlog.report.reading_notes import report_reading_notes
+
+    (state,) = report_reading_notes({"truth_bridged": {"x1": {"points": 2, "of": 11}}})
+    assert "(is the model's dt the log's?)" in state
