@@ -564,24 +564,10 @@ def _smoothing_lines(smoothing: Smoothing) -> list[str]:
                 ".6g",
             ),
         ]
-        if side.missed or (own is not None and own.missed):
-            rows.append(
-                (
-                    f"component {c}: true switches missed",
-                    None if own is None else own.missed,
-                    side.missed,
-                    "d",
-                )
-            )
-        if side.undetermined or (own is not None and own.undetermined):
-            rows.append(
-                (
-                    f"component {c}: true switches undetermined",
-                    None if own is None else own.undetermined,
-                    side.undetermined,
-                    "d",
-                )
-            )
+        for count in ("missed", "undetermined"):  # rows of switches only where there are some
+            offline, filtered = getattr(side, count), getattr(own, count, None)
+            if offline or filtered:
+                rows.append((f"component {c}: true switches {count}", filtered, offline, "d"))
     if explained and f.outputs is not None and s.outputs is not None:
         rows += [
             (f"fit of h(x̂) {y} (%)", f.outputs[y].fit, out.fit, ".4g")

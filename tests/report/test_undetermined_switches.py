@@ -231,3 +231,32 @@ def test_a_smoothed_run_says_its_undetermined_switches_on_both_sides() -> None:
     row = f"| true switches undetermined | {filtered.undetermined} | {smoothed.undetermined} |"
     assert row in render_markdown(report)
     assert Report.from_json(report.to_json()).smoothing == report.smoothing
+
+
+def test_a_components_switch_rows_are_shown_where_either_side_has_some() -> None:
+    import dataclasses
+
+    from hybridlog.report.build import build_report
+    from hybridlog.report.markdown import render_markdown
+    from tests.report.test_plot_data import _run
+
+    result, signals = _run(600, seed=3, smoothed=True)
+    report = build_report(result, signals, log="l", model_name="m", dt=1.0)
+    assert report.smoothing is not None
+
+    def side(missed: int, undetermined: int) -> ComponentSide:
+        return ComponentSide(0.5, None, None, 0, missed, undetermined)
+
+    smoothing = dataclasses.replace(
+        report.smoothing,
+        filtered=dataclasses.replace(
+            report.smoothing.filtered, components={"a": side(2, 0), "b": side(0, 0)}
+        ),
+        smoothed=dataclasses.replace(
+            report.smoothing.smoothed, components={"a": side(1, 3), "b": side(0, 0)}
+        ),
+    )
+    text = render_markdown(dataclasses.replace(report, smoothing=smoothing))
+    assert "| component a: true switches missed | 2 | 1 |" in text
+    assert "| component a: true switches undetermined | 0 | 3 |" in text
+    assert "component b: true switches" not in text  # none on either side
