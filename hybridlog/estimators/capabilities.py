@@ -410,9 +410,17 @@ class ModelTraits:
 
     @functools.cached_property
     def unmeasured_state(self) -> str | None:
-        """Why the outputs are not the states (``h = x``) in every mode, or None."""
+        """Why the outputs are not the states (``h = x``) in every mode, or None.
+
+        The key named is the one the file has: a model of booleans (``[dynamics]``, paper
+        003) writes its outputs once, as ``dynamics.h``; its modes are not tables of the
+        file, and ``modes.0.h`` sent the user looking for a ``[modes.0]`` it does not have.
+        """
         xs, _ = self.model.symbols()
+        states = ", ".join(self.model.states)
         for mode in self.model.modes:
             if list(mode.h) != xs:
-                return f"modes.{mode.id}.h is not the state ({', '.join(self.model.states)})"
+                if self.model.boolean_affine is not None:
+                    return f"dynamics.h is not the state ({states}) in mode '{mode.id}'"
+                return f"modes.{mode.id}.h is not the state ({states})"
         return None
