@@ -110,6 +110,11 @@ class Capabilities:
         ``--mode-sequence argmax`` gives, which the smoother's reason does not answer.
     needs_single_output:
         The model must have exactly one output (paper 004's observer, ``h`` maps to R).
+    needs_drift_observable:
+        Every mode's ``Φ = [h, L_f h, …]`` must reach every state (paper 004, eq. (7)): a
+        state that neither ``h`` nor, through the drift's ``dx``, any derivative of it
+        reads leaves ``Q = ∂Φ/∂x`` singular at every state
+        (:attr:`ModelTraits.drift_blind`).
     modes_of_the_step_into:
         The estimator's mode of sample k is the one under which ``x(k)`` came from
         ``x(k-1)``, as a Markov-jump filter's (paper 000 eq. (2)).  On a state-driven model,
@@ -144,6 +149,7 @@ class Capabilities:
     continuous_time: bool = False
     supports_smoothing: bool = False
     needs_single_output: bool = False
+    needs_drift_observable: bool = False
     no_smoothing: str = ""
     mode_rule: str = ""
     modes_of_the_step_into: bool = False
@@ -174,6 +180,8 @@ class Capabilities:
             words.append("measured state")
         if self.needs_single_output:
             words.append("one output")
+        if self.needs_drift_observable:
+            words.append("every state read by the output or its drift derivatives")
         if self.needs_switching_signal:
             words.append("switching signal in the log (a one-mode model: none)")
         if self.applies_commands:
@@ -218,6 +226,8 @@ class Capabilities:
                 f"needs a single-output model; the model has {traits.outputs} outputs "
                 f"({', '.join(traits.model.outputs)})"
             )
+        if self.needs_drift_observable and traits.drift_blind is not None:
+            return f"needs every mode drift-observable from its output; {traits.drift_blind}"
         return None
 
     def signals_mismatch(self, model: HybridModel, signals: AlignedSignals) -> str | None:
@@ -409,10 +419,57 @@ class ModelTraits:
         return self.model.unstated_measurement_noise()
 
     @functools.cached_property
+    def drift_blind(self) -> str | None:
+        """The first mode whose ``Φ`` (paper 004, eq. (7)) cannot read some state, or None.
+
+        ``L_f^k h`` reads only states within ``k`` steps of ``h``'s through the drift (``dx``
+        with the inputs at zero: ``x_i`` leads to the states ``dx_i`` reads); a state no
+        path reaches enters no entry of ``Φ``, so ``Q = ∂Φ/∂x`` has a zero column at every
+        state.  Read off the expressions' symbols, no derivative taken: such a model ran
+        (``hybridlog models`` passed it) and was refused as diverged at its first sample.
+        A state reached whose terms cancel is still found by the run's diagnosis.
+        """
+        import sympy
+
+        xs, us = self.model.symbols()
+        zero = {u: sympy.S.Zero for u in us}  # the drift, as drift_observability takes it
+        for mode in self.model.modes:
+            reads = [sympy.sympify(e).xreplace(zero).free_symbols for e in mode.dx]
+            reached: set[object] = set()
+            for e in mode.h:
+                reached |= e.free_symbols
+            frontier = set(reached)
+            while frontier:
+                found: set[object] = set()
+                for j, x in enumerate(xs):
+                    if x in frontier:
+                        found |= reads[j]
+                frontier = found - reached
+                reached |= found
+            blind = [
+                name for name, x in zip(self.model.states, xs, strict=True) if x not in reached
+            ]
+            if blind:
+                return (
+                    f"{', '.join(blind)} enter(s) neither modes.{mode.id}.h nor, through its "
+                    "dx, any time derivative of it: Q = dPhi/dx (eq. (21)) of mode "
+                    f"'{mode.id}' is singular at every state"
+                )
+        return None
+
+    @functools.cached_property
     def unmeasured_state(self) -> str | None:
-        """Why the outputs are not the states (``h = x``) in every mode, or None."""
+        """Why the outputs are not the states (``h = x``) in every mode, or None.
+
+        The key named is the one the file has: a model of booleans (``[dynamics]``, paper
+        003) writes its outputs once, as ``dynamics.h``; its modes are not tables of the
+        file, and ``modes.0.h`` sent the user looking for a ``[modes.0]`` it does not have.
+        """
         xs, _ = self.model.symbols()
+        states = ", ".join(self.model.states)
         for mode in self.model.modes:
             if list(mode.h) != xs:
-                return f"modes.{mode.id}.h is not the state ({', '.join(self.model.states)})"
+                if self.model.boolean_affine is not None:
+                    return f"dynamics.h is not the state ({states}) in mode '{mode.id}'"
+                return f"modes.{mode.id}.h is not the state ({states})"
         return None

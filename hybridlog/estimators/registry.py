@@ -299,6 +299,7 @@ ESTIMATORS: dict[str, Estimator] = {
                 applies_jump_maps=True,
                 continuous_time=True,
                 needs_single_output=True,
+                needs_drift_observable=True,
                 state_variances=False,
                 no_smoothing="it takes the modes from the log's switching signal and its "
                 "observer keeps no covariance (paper 004): no mode to decide, no RTS step",

@@ -769,3 +769,30 @@ def test_a_log_starting_in_another_mode_than_initial_mode_is_said_so():
     assert 'the jump map jumps."0->1" was not applied' in note
     _, _, _, expected = clutch_run(builtin_text("ice_clutch"), "-4,-8,-12", schedule[::-1])
     assert not any(n.startswith("[initial]") for n in expected.notes)
+
+
+def test_a_state_no_derivative_of_the_output_reads_is_refused_before_any_log():
+    """x2 enters neither h nor, through dx, L_f h: Q is singular at every state.
+
+    Read off the model alone, as ``hybridlog models FILE`` prepares it: such a model was
+    passed there and refused by ``analyze`` as diverged at its first sample.  A state that
+    is reached but cancels (det Q = 0 with no zero column) is left to the run's diagnosis.
+    """
+    blind = parse_model(UNOBSERVABLE % ('"-x1 + u", "-2*x2"', '"x1"'), origin="blind.toml")
+    with pytest.raises(ModelError) as caught:
+        prepare(blind, "switching-observer")
+    message = str(caught.value)
+    assert message == (
+        "blind.toml: estimator 'switching-observer' needs every mode drift-observable from its "
+        "output; x2 enter(s) neither modes.a.h nor, through its dx, any time derivative of it: "
+        "Q = dPhi/dx (eq. (21)) of mode 'a' is singular at every state"
+    )
+    # the input is no path: u reads no state, and the drift takes it at zero
+    reached = parse_model(UNOBSERVABLE % ('"-x1 + x2*u", "-2*x2"', '"x1"'), origin="u.toml")
+    with pytest.raises(ModelError, match="x2 enter"):
+        prepare(reached, "switching-observer")
+    cancelled = parse_model(
+        UNOBSERVABLE % ('"-x1 - x2 + u", "-x1 - x2"', '"x1 + x2"'), origin="c.toml"
+    )
+    prepare(cancelled, "switching-observer")
+    prepare(load_model("ice_clutch"), None)

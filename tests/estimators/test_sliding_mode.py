@@ -139,6 +139,9 @@ def test_an_unmeasured_state_is_refused_in_one_line(short_log):
         prepare(model, "sliding-mode")
     message = str(caught.value)
     assert message.startswith("v.toml: estimator 'sliding-mode' needs the state measured; ")
+    # the key the file has: a model of booleans has no [modes.0] table to look for
+    assert "dynamics.h is not the state (H1, H2, H3) in mode '0'" in message
+    assert "modes." not in message
     assert "\n" not in message
     options = prepare(load_model("three_tank_valves"), None).options
     with pytest.raises(ModelError, match=r"^v\.toml: dynamics\.h: sliding-mode needs the state"):
