@@ -318,6 +318,8 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
         read = dataclasses.replace(read, recover=False)
     signals = read_log(log, warm.model, read, reading)
     _check_log_unchanged(log, stamp)
+    if job.read.msg_dirs:  # and after: an edit saved while the log was read
+        _check_unchanged(job, [])
     check_signals([warm.prepared], warm.model, signals)  # before waiting for memory
     from hybridlog.report import write_report  # polars: where a log is analysed only
 

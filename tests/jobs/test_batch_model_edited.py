@@ -242,3 +242,36 @@ def test_a_centres_file_saved_between_its_hash_and_its_read_stops_the_batch(
             sets=[f"centers={centres}"],
         )
     assert not (tmp_path / "out").exists()
+
+
+def test_a_msg_dir_edited_while_a_log_is_read_fails_that_log(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A ``--msg-dir`` is checked after each log's read too: an edit saved during the read
+    was read under the hash of the content before it."""
+    msgs = tmp_path / "msgs" / "my_msgs" / "msg"
+    msgs.mkdir(parents=True)
+    (msgs / "Level.msg").write_text("float64 h\n", encoding="utf-8")
+    (tmp_path / "logs").mkdir()
+    log = write_table(tmp_path / "logs" / "s1.csv", tank_run(steps=30, seed=1).columns)
+    read_log = batch_task.read_log
+
+    def edited_while_read(*args: Any) -> Any:
+        signals = read_log(*args)
+        (msgs / "Level.msg").write_text("float64 h\nfloat64 g\n", encoding="utf-8")
+        return signals
+
+    monkeypatch.setattr(batch_task, "read_log", edited_while_read)
+    outcome = run_batch(
+        [log],
+        TANK,
+        out_dir=tmp_path / "out",
+        estimator="imm",
+        read=ReadOptions(msg_dirs=(str(tmp_path / "msgs"),)),
+    )
+
+    (only,) = outcome.logs
+    assert only.status == "failed" and only.error is not None
+    assert only.error.startswith("--msg-dir folder ")
+    assert "changed since the batch started" in only.error
+    assert not (tmp_path / "out" / "s1.csv").exists()
