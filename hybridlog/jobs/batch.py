@@ -17,8 +17,10 @@ about to be made and the folder holds every file hybridlog wrote there, unchange
 (:func:`~hybridlog.jobs.batch_task._intact`); otherwise it is redone.  ``force`` redoes
 every log.  The log and the model file are hashed before they are read, and a log read with
 a model file, centres file or ``--msg-dir`` whose content is no longer the one the batch
-hashed (edited while it runs) fails (:func:`~hybridlog.jobs.batch_task._check_unchanged`):
-a report never records a content it was not made from.
+hashed (edited while it runs) fails (:func:`~hybridlog.jobs.batch_task._check_unchanged`);
+the model and centres files are hashed again once read, by the batch process and by each
+worker (:func:`~hybridlog.jobs.batch_task.check_read_unchanged`: an edit saved between the
+hash and the read): a report never records a content it was not made from.
 
 **Folder names** (:func:`~hybridlog.jobs.batch_names.folder_names`) are the log paths
 relative to their common folder, suffix kept: ``d2/run.csv`` → ``<out>/d2/run.csv/``.  They

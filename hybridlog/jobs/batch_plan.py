@@ -28,7 +28,14 @@ from hybridlog.jobs.batch_logs import natural_key
 from hybridlog.jobs.batch_names import SUMMARY_NAMES, folder_names
 from hybridlog.jobs.batch_others import report_folders
 from hybridlog.jobs.batch_summaries import summaries_ours
-from hybridlog.jobs.batch_task import WARM, WARM_LOCK, Warm, input_files, warm_key
+from hybridlog.jobs.batch_task import (
+    WARM,
+    WARM_LOCK,
+    Warm,
+    check_read_unchanged,
+    input_files,
+    warm_key,
+)
 from hybridlog.jobs.estimation import estimator_inputs, input_paths
 from hybridlog.jobs.gate_checks import gates_for
 from hybridlog.jobs.origins import given_values, run_values
@@ -145,6 +152,9 @@ def plan(
         offline=prepared.offline,
         run=uuid.uuid4().hex,
     )
+    # read after their hashes (the logs this process analyses use them): checked again
+    inputs_read = estimator_inputs(prepared, model)
+    check_read_unchanged(job, prepared)
     # the folder itself first (not a file, not a link): its summaries are checked as in it
     check_dir_target(root, force=True, replacing=False)
     ours = summaries_ours(root)
@@ -173,9 +183,7 @@ def plan(
         WARM.clear()
         values = run_values(model, prepared, overrides.parameter_texts)
         given = given_values(overrides.parameter_texts, prepared)
-        WARM[warm_key(job)] = Warm(
-            model, prepared, estimator_inputs(prepared, model), gates, values, given
-        )
+        WARM[warm_key(job)] = Warm(model, prepared, inputs_read, gates, values, given)
     tasks = [(job, log, str(folder)) for log, folder in zip(paths, folders, strict=True)]
     return job, model, gates, tasks
 

@@ -54,7 +54,15 @@ from hybridlog.outputs import check_dir_target, edited_files, recorded_files
 from hybridlog.report import Report, evaluate_gates, parse_gates, read_report
 from hybridlog.report.gates import Gate
 
-__all__ = ["WARM", "WARM_LOCK", "Warm", "analyze_log", "input_files", "warm_key"]
+__all__ = [
+    "WARM",
+    "WARM_LOCK",
+    "Warm",
+    "analyze_log",
+    "check_read_unchanged",
+    "input_files",
+    "warm_key",
+]
 
 
 T = TypeVar("T")
@@ -109,13 +117,9 @@ def _warm(job: BatchJob) -> Warm:
     with WARM_LOCK:
         warm = WARM.get(key)
         if warm is None:
-            # hashed before it is read: a report never records a model it was not made from
-            if model_hash(job.model_ref) != job.model_sha256:
-                raise ModelError(
-                    f"{job.model_ref}: the model file changed since the batch started, so "
-                    "this log was not analysed with the model the batch checked and records; "
-                    "run the batch again"
-                )
+            # hashed before it is read and again once read (with the files its options
+            # name): a report never records a model it was not made from
+            _check_model_unchanged(job)
             model, overrides = parse_sets(job.sets, job.model_ref)
             (prepared,) = prepare_estimators(
                 model,
@@ -129,6 +133,7 @@ def _warm(job: BatchJob) -> Warm:
             values = run_values(model, prepared, overrides.parameter_texts)
             given = given_values(overrides.parameter_texts, prepared)
             inputs = estimator_inputs(prepared, model)
+            check_read_unchanged(job, prepared)
             warm = Warm(model, prepared, inputs, gates, values, given)
             WARM.clear()
             WARM[key] = warm
@@ -138,6 +143,43 @@ def _warm(job: BatchJob) -> Warm:
             with contextlib.suppress(Exception):
                 warm_up_told(warm.prepared, warm.model)
         return warm
+
+
+def _check_model_unchanged(job: BatchJob) -> None:
+    """Refuse a model file whose content is not the one the batch hashed when it started.
+
+    Called before the worker reads it and again once read (with the ``--set`` values, it is
+    read twice): an edit saved between the hash and the read (an editor writing the file
+    while a worker starts) was loaded under the hash of the content before it.
+
+    Raises
+    ------
+    ModelError
+        Naming the model file.
+    """
+    if model_hash(job.model_ref) != job.model_sha256:
+        raise ModelError(
+            f"{job.model_ref}: the model file changed since the batch started, so "
+            "this log was not analysed with the model the batch checked and records; "
+            "run the batch again"
+        )
+
+
+def check_read_unchanged(job: BatchJob, prepared: Prepared) -> None:
+    """Refuse a model file or input file edited between the batch's hash and its read.
+
+    Called once the model and the files its estimator's options name were read (by a
+    worker, or by :func:`~hybridlog.jobs.batch_plan.plan` for the logs its own process
+    analyses): an edit saved after the hash and before the read (an editor writing the
+    model while the batch starts) was loaded under the hash of the content before it.
+
+    Raises
+    ------
+    ModelError, OptionError
+        Naming the file.
+    """
+    _check_model_unchanged(job)
+    _check_unchanged(job, input_files(prepared))
 
 
 def input_files(prepared: Prepared) -> list[tuple[str, str, str]]:
@@ -276,6 +318,8 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
         read = dataclasses.replace(read, recover=False)
     signals = read_log(log, warm.model, read, reading)
     _check_log_unchanged(log, stamp)
+    if job.read.msg_dirs:  # and after: an edit saved while the log was read
+        _check_unchanged(job, [])
     check_signals([warm.prepared], warm.model, signals)  # before waiting for memory
     from hybridlog.report import write_report  # polars: where a log is analysed only
 

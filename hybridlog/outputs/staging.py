@@ -112,9 +112,27 @@ def staging_dir(target: PathLike, *, inside: bool = False, kind: str = "tmp") ->
             raise OutputError(f"{shown_path(target)}: cannot be written ({err.strerror})") from err
         yield area
     except BaseException as err:
+        removed = _removed_meanwhile(target, area, err)  # before it is removed here
         shutil.rmtree(area, ignore_errors=True)
         remove_created(created)
         if (refused := storage_error(target, err)) is not None:
             raise refused from err
+        if removed is not None:
+            raise removed from err
         raise
     shutil.rmtree(area, ignore_errors=True)
+
+
+def _removed_meanwhile(target: PathLike, area: Path, err: BaseException) -> OutputError | None:
+    """``err`` as the one-line :class:`OutputError` it is, if ``area`` was removed meanwhile.
+
+    An output folder deleted while a batch writes its reports (``rm -rf out`` of a run
+    thought finished) took the temporary folders being written: their next write failed
+    with Python's own ``FileNotFoundError`` naming a temporary name, as the log's error.
+    """
+    if not isinstance(err, FileNotFoundError) or area.exists():
+        return None
+    return OutputError(
+        f"{shown_path(target)}: cannot be written: the folder it was being written in was "
+        "removed meanwhile (by another program, or with a folder holding it)"
+    )

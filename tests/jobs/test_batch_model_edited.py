@@ -13,23 +13,29 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar
 
 import pytest
 
 import hybridlog.jobs.batch_plan as batch_plan
 import hybridlog.jobs.batch_task as batch_task
+from hybridlog.errors import ModelError, OptionError
+from hybridlog.estimators import Prepared
 from hybridlog.io import ReadOptions
 from hybridlog.io.writers import write_table
 from hybridlog.jobs.batch import run_batch
 from hybridlog.jobs.batch_outcomes import LogOutcome
 from hybridlog.jobs.cluster import discover_modes
 from hybridlog.model.builtins import builtin_text
+from hybridlog.model.hybrid_model import HybridModel
 from tests.support.logfiles import tank_run
 from tests.support.paths import SAMPLE_LOGS
 
 TANK = "three_tank_hstf"
 DOUBLE_CART = SAMPLE_LOGS / "double_cart_case1.csv"
+T = TypeVar("T")
 
 
 def test_a_worker_that_starts_after_the_model_was_edited_fails_its_logs(tmp_path: Path) -> None:
@@ -155,3 +161,117 @@ def test_a_msg_dir_is_read_again_only_when_stat_says_it_changed(
     )
     assert [o.status for o in outcome.logs] == ["done"] * 3
     assert hashed.count("--msg-dir folder") == 1  # for the settings, once
+
+
+def _saving_meanwhile(model: Path, read: Callable[..., T]) -> Callable[..., T]:
+    """``read`` (the model's), the model file saved first: between its hash and its read."""
+
+    def saved_then_read(*args: object) -> T:
+        model.write_text(builtin_text(TANK) + "\n# edited\n", encoding="utf-8")
+        return read(*args)
+
+    return saved_then_read
+
+
+def test_a_model_saved_between_its_hash_and_its_read_stops_the_batch(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The batch hashed the model, then read it for the logs its own process analyses: an
+    edit saved in between was loaded under the hash of the content before it (reports said
+    they were made from a model they were not)."""
+    model = tmp_path / "tank.toml"
+    model.write_text(builtin_text(TANK), encoding="utf-8")
+    (tmp_path / "logs").mkdir()
+    log = write_table(tmp_path / "logs" / "s1.csv", tank_run(steps=30, seed=1).columns)
+    monkeypatch.setattr(batch_plan, "parse_sets", _saving_meanwhile(model, batch_plan.parse_sets))
+
+    with pytest.raises(ModelError, match="the model file changed since the batch started"):
+        run_batch([log], model, out_dir=tmp_path / "out", estimator="imm")
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_model_saved_between_a_workers_hash_and_its_read_fails_its_logs(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The same in a worker that loads the model for its first log."""
+    model = tmp_path / "tank.toml"
+    model.write_text(builtin_text(TANK), encoding="utf-8")
+    (tmp_path / "logs").mkdir()
+    logs = [
+        write_table(tmp_path / "logs" / f"s{k}.csv", tank_run(steps=30, seed=k).columns)
+        for k in (1, 2)
+    ]
+    monkeypatch.setattr(batch_task, "parse_sets", _saving_meanwhile(model, batch_task.parse_sets))
+
+    def start_a_new_worker(outcome: LogOutcome) -> None:
+        batch_task.WARM.clear()  # the next log goes to a worker that has loaded nothing yet
+
+    outcome = run_batch(
+        logs, model, out_dir=tmp_path / "out", estimator="imm", progress=start_a_new_worker
+    )
+
+    first, second = outcome.logs
+    assert first.status == "done"
+    assert second.status == "failed" and second.error is not None
+    assert second.error.startswith(f"{model}: the model file changed since the batch started")
+    assert not (tmp_path / "out" / "s2.csv").exists()
+
+
+def test_a_centres_file_saved_between_its_hash_and_its_read_stops_the_batch(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The same for a file an estimator option names, hashed in the settings, then read."""
+    centres = tmp_path / "c.json"
+    discover_modes(DOUBLE_CART, "double_cart_case1", out=centres, compare_kmeans=False)
+    (tmp_path / "logs").mkdir()
+    log = tmp_path / "logs" / "s1.csv"
+    shutil.copyfile(DOUBLE_CART, log)
+    estimator_inputs = batch_plan.estimator_inputs
+
+    def saved_meanwhile(prepared: Prepared, model: HybridModel) -> dict[str, Any]:
+        centres.write_text(json.dumps(json.loads(centres.read_text("utf-8")), indent=1))
+        return estimator_inputs(prepared, model)
+
+    monkeypatch.setattr(batch_plan, "estimator_inputs", saved_meanwhile)
+    with pytest.raises(OptionError, match=r"centres file .*: changed since the batch started"):
+        run_batch(
+            [log],
+            "double_cart_case1",
+            out_dir=tmp_path / "out",
+            estimator="chiu",
+            sets=[f"centers={centres}"],
+        )
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_msg_dir_edited_while_a_log_is_read_fails_that_log(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A ``--msg-dir`` is checked after each log's read too: an edit saved during the read
+    was read under the hash of the content before it."""
+    msgs = tmp_path / "msgs" / "my_msgs" / "msg"
+    msgs.mkdir(parents=True)
+    (msgs / "Level.msg").write_text("float64 h\n", encoding="utf-8")
+    (tmp_path / "logs").mkdir()
+    log = write_table(tmp_path / "logs" / "s1.csv", tank_run(steps=30, seed=1).columns)
+    read_log = batch_task.read_log
+
+    def edited_while_read(*args: Any) -> Any:
+        signals = read_log(*args)
+        (msgs / "Level.msg").write_text("float64 h\nfloat64 g\n", encoding="utf-8")
+        return signals
+
+    monkeypatch.setattr(batch_task, "read_log", edited_while_read)
+    outcome = run_batch(
+        [log],
+        TANK,
+        out_dir=tmp_path / "out",
+        estimator="imm",
+        read=ReadOptions(msg_dirs=(str(tmp_path / "msgs"),)),
+    )
+
+    (only,) = outcome.logs
+    assert only.status == "failed" and only.error is not None
+    assert only.error.startswith("--msg-dir folder ")
+    assert "changed since the batch started" in only.error
+    assert not (tmp_path / "out" / "s1.csv").exists()
