@@ -91,6 +91,19 @@ def comparison_markdown(
     return "\n".join(lines) + "\n"
 
 
+def _failure_line(row: BatchRow) -> str:
+    """A failed log's item: its error, led by the log's name once.
+
+    An error names the log it is about, as it does on ``analyze``'s terminal: the item
+    read ``- alog/bad.csv: alog/bad.csv, line 3, column 'y1': ...`` where the error began
+    with the name; such an error is the item alone, another is put after the name.
+    """
+    error = row.error or ""
+    if error.startswith(row.log) and error[len(row.log) : len(row.log) + 1] in (":", ","):
+        return f"- {escape_markdown(error)}"
+    return f"- {escape_markdown(row.log)}: {escape_markdown(error)}"
+
+
 def _partial_section(rows: Sequence[BatchRow]) -> list[str]:
     """summary.md's logs whose mode accuracy is over part of the log (a late true mode)."""
     partial = [
@@ -223,9 +236,7 @@ def batch_markdown(
     lines += ["", table]
     if failed:
         lines += ["", f"## Failed logs ({len(failed)} of {len(rows)})", ""]
-        lines += [
-            f"- {escape_markdown(row.log)}: {escape_markdown(row.error or '')}" for row in failed
-        ]
+        lines += [_failure_line(row) for row in failed]
     if missed:
         lines += ["", f"## Missed gates ({len(missed)} of {len(rows)})", ""]
         lines += [
