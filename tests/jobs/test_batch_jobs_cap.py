@@ -19,6 +19,7 @@ from tests.support.logfiles import tank_run
 
 
 def test_jobs_are_capped_by_the_memory_the_workers_need(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(batch, "usable_cores", lambda: 1_000)
     monkeypatch.setattr(batch, "available_memory", lambda: 3 * WORKER_BASELINE_BYTES + 1)
     size, notes = pool_size(500, 1000)
     assert size == 3
@@ -67,6 +68,7 @@ def test_jobs_auto_is_named_auto_in_notes_and_errors(
     monkeypatch.setattr(batch, "usable_cores", lambda: 1)
     with pytest.raises(errors.OptionError, match=r"^--jobs auto: has no effect with --scheduler"):
         run_batch([], "three_tank_hstf", out_dir=tmp_path / "o", jobs="auto", scheduler="tcp://x:1")
+    monkeypatch.setattr(batch, "usable_cores", lambda: 4)
     monkeypatch.setattr(batch, "available_memory", lambda: 3 * WORKER_BASELINE_BYTES + 1)
     assert pool_size(2, 1, auto=True) == (1, [])  # fewer logs than cores: said by no note
     assert pool_size(4, 10, auto=True)[1] == [
@@ -88,3 +90,24 @@ def test_jobs_keep_the_notes_on_the_logs_found(tmp_path: Path) -> None:
     assert len(outcome.notes) == 2
     assert "'.' was skipped" in outcome.notes[0]
     assert outcome.notes[1] == "--jobs 2: 1 log, so 1 at once"
+
+
+def test_more_workers_than_cores_are_said_to_slow_the_batch(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``--jobs 64`` on 2 cores took 35 s where ``--jobs 2`` took 5 s, without a word."""
+    monkeypatch.setattr(batch, "usable_cores", lambda: 2)
+    monkeypatch.setattr(batch, "available_memory", lambda: None)
+    assert pool_size(2, 100) == (2, [])
+    assert pool_size(64, 3) == (3, ["--jobs 64: 3 logs, so 3 at once", _slower("64", 3)])
+    assert pool_size(64, 100) == (64, [_slower("64", 64)])
+    monkeypatch.setattr(batch, "usable_cores", lambda: 1)
+    assert pool_size(2, 100) == (2, [_slower("2", 2, cores="1 core")])
+
+
+def _slower(asked: str, size: int, cores: str = "2 cores") -> str:
+    return (
+        f"--jobs {asked}: {size} worker processes on {cores}: each sets up its own compiler "
+        "and imports (about 150 MB) and the logs share the cores, so more workers than cores "
+        "make a batch slower, not faster (--jobs auto: one per core)"
+    )
