@@ -82,6 +82,7 @@ class SwitchingObserverOptions:
         "eigenvalues of A_b - K C_b (sec. 5): n negative reals 'l1,l2,...', "
         "or one value l for l, 2l, ..., nl",
         check=eigenvalue_values,
+        items=float,
     )
     output_hold: Literal["first", "zero"] = option(
         "first",

@@ -53,16 +53,23 @@ class ObserverOptions:
     """Options of paper 001's pipeline shared by ``chiu`` and ``kmeans``."""
 
     output_lags: str = option(
-        "0,1", "lags of every output in φ(k), e.g. 0,1; must contain 0", check=_output_lags
+        "0,1",
+        "lags of every output in φ(k), e.g. 0,1; must contain 0",
+        check=_output_lags,
+        items=int,
     )
-    input_lags: str = option("1", "lags of every input in φ(k), e.g. 1", check=_input_lags)
+    input_lags: str = option(
+        "1", "lags of every input in φ(k), e.g. 1", check=_input_lags, items=int
+    )
     centers: str = option(
         "",
         "centers.json of hybridlog cluster to use instead of fitting (from a model file's folder)",
         path=True,
     )
     cluster_modes: str = option(
-        "", "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)"
+        "",
+        "mode ids of the clusters in order, e.g. 2,1 (empty: automatic labelling)",
+        items=str,
     )
     decay_rate: float = option(
         1.0, "decay rate ρ of the LMI (15) (1: the paper's condition)", range=(1e-6, 1.0)

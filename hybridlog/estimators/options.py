@@ -18,6 +18,10 @@ field's type hint says what a value must be, by one rule for a TOML value of the
     one of the listed strings.
 ``X | None``
     ``"none"`` (or empty text) for ``None``, otherwise as ``X`` (TOML has no null).
+a list (``str`` made with ``items=float``, ``int`` or ``str``)
+    text of items separated by commas (``"-10,-20"``), or, in a model file, a TOML array of
+    items of that type (``[-10.0, -20.0]``), each read by the rule above and refused naming
+    its position; the array is then that text (``"-10.0,-20.0"``), read by the same check.
 
 A model file's value is the TOML value itself: ``smooth = "true"`` (a string) and
 ``smooth = 1`` (a number) are refused for a ``bool``, as ``eigenvalues = -5`` (a number) is
@@ -116,6 +120,7 @@ def option(
     below: bool = False,
     check: Callable[[Any], object] | None = None,
     path: bool = False,
+    items: type[Any] | None = None,
 ) -> T:
     """A dataclass field for an estimator option.
 
@@ -141,6 +146,10 @@ def option(
         value came from.
     path:
         The value names a file: relative to :attr:`OptionSource.base` of where it came from.
+    items:
+        For a ``str`` option whose text lists items separated by commas: their type
+        (``float``, ``int`` or ``str``).  A model file may give a TOML array of them
+        instead (:func:`_listed`); ``check`` reads the text either way.
     """
     metadata: dict[str, Any] = {"help": help}
     if path:
@@ -153,6 +162,10 @@ def option(
         raise TypeError("above= and below= need a range")
     if check is not None:
         metadata["check"] = check
+    if items is not None:
+        if items not in (float, int, str) or not isinstance(default, str):
+            raise TypeError("items= is float, int or str, of a str option")
+        metadata["items"] = items
     field: T = dataclasses.field(default=default, metadata=metadata)
     return field
 
@@ -420,6 +433,9 @@ def _read(raw: Any, field: dataclasses.Field[Any], kind: _Kind, *, text: bool, b
 
     A path option's value is taken from ``base`` when relative, and may not name a folder.
     """
+    items = field.metadata.get("items")
+    if items is not None and not text and not isinstance(raw, str):
+        raw = _listed(raw, items)
     value = _check(_convert(raw, kind, text=text), kind, field)
     if field.metadata.get("path") and value:
         if base and not os.path.isabs(value):
@@ -427,6 +443,50 @@ def _read(raw: Any, field: dataclasses.Field[Any], kind: _Kind, *, text: bool, b
         if os.path.isdir(value):  # read as a file only after the log, or never
             raise ValueError(f"{excerpt(value)} is a folder; name a file")
     return value
+
+
+_ITEMS = {float: "numbers", int: "whole numbers", str: "strings"}
+"""What the items of a list option are, for its refusal (:func:`_listed`)."""
+
+
+def _listed(array: object, items: type[Any]) -> str:
+    """A model file's TOML array of a list option as the text of its items, by commas.
+
+    ``eigenvalues = [-20.0, -30.0]`` was refused ("expected text") where an engineer writes
+    an array; each item is read as an option of type ``items`` is (:func:`_typed`: no
+    booleans, NaN or text for a number), written back as text that reads as the same value
+    (``repr`` of a float), so the option's ``check`` reads the one text either way.
+
+    A lone number for a list of numbers is the list of that one (``eigenvalues = -5`` as
+    ``"-5"``); any other value that is neither text nor an array is refused.
+
+    Raises
+    ------
+    ValueError
+        Naming the item by its position: ``item 2 of the array: expected a finite number,
+        got nan``.
+    """
+    kind = _Kind(items, None, optional=False)
+    if items is not str and isinstance(array, int | float) and not isinstance(array, bool):
+        array = [array]
+    if not isinstance(array, list):
+        raise ValueError(
+            f"expected an array of {_ITEMS[items]} or their text separated by commas, got "
+            f"{_spelled(array, kind)}"
+        )
+    texts = []
+    for position, item in enumerate(array, start=1):
+        try:
+            value = _typed(item, kind, None)
+        except ValueError as err:
+            raise ValueError(f"item {position} of the array: {err}") from None
+        if items is str and ("," in value or not value):
+            raise ValueError(
+                f"item {position} of the array: {excerpt(item)} is no single item (empty, or "
+                "holding a comma)"
+            )
+        texts.append(repr(value) if isinstance(value, float) else str(value))
+    return ",".join(texts)
 
 
 def _refuse_conflicts(options: object, estimator: str, sources: Mapping[str, OptionSource]) -> None:
@@ -621,11 +681,12 @@ def describe_options(cls: type[Any]) -> tuple[OptionInfo, ...]:
         help_text = field.metadata.get("help", "")
         if not help_text:
             raise TypeError(f"{cls.__name__}.{name}: an estimator option needs a help text")
+        items = field.metadata.get("items")
         constraint = "" if field.metadata.get("range") is None else f"in {interval(field)}"
         infos.append(
             OptionInfo(
                 name=name,
-                type=kind.text,
+                type=kind.text if items is None else f"list of {items.__name__}",
                 default=field.default,
                 constraint=constraint,
                 help=help_text,

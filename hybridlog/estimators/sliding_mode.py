@@ -357,6 +357,15 @@ def least_share(count: int, total: int) -> float:
     return float(least)
 
 
+def _samples(count: int) -> str:
+    """``"0 samples"``, ``"1 sample"``, ``"1,234 samples"``: a refusal's count of each reason.
+
+    A reason on no sample read "δ̃ 0.5 or more from every boolean vector on 0", the noun
+    left for the reader to guess.
+    """
+    return f"{count:,} sample{'' if count == 1 else 's'}"
+
+
 def _refuse_unvouched(
     model: HybridModel,
     signals: AlignedSignals,
@@ -412,9 +421,9 @@ def _refuse_unvouched(
     raise DivergenceError(
         f"{model.origin or model.name}: sliding-mode cannot vouch for σ̂ on {count:,} of "
         f"{n_samples:,} samples ({100 * count / n_samples:.1f} % > max_unvouched = {largest:g}): "
-        f"δ̃ {within:g} or more from every boolean vector on {int(outside.sum()):,}, the "
-        f"observer not sliding (|D⁺ė| ≥ {within:g} over {SLIP_WINDOW_S:g} s, or in the first) on "
-        f"{int(slipping.sum()):,}, so (33) "
+        f"δ̃ {within:g} or more from every boolean vector on {_samples(int(outside.sum()))}, "
+        f"the observer not sliding (|D⁺ė| ≥ {within:g} over {SLIP_WINDOW_S:g} s, or in the "
+        f"first) on {_samples(int(slipping.sum()))}, so (33) "
         "fails there; the model does not explain the log, or its noise, disturbance or V_M is "
         "more than the observer tolerates"
     )
@@ -441,8 +450,9 @@ def _refuse_held(
         f"{model.origin or model.name}: sliding-mode cannot vouch for σ̂ on {count:,} of "
         f"{n_samples:,} samples ({100 * count / n_samples:.1f} % > max_unvouched = {largest:g}): "
         f"D(x, u) of eq. (30) singular or not finite at the measured state (σ̂ held) on "
-        f"{held:,}, δ̃ {within:g} or more from every boolean vector on {int(outside.sum()):,}, not "
-        f"sliding on {int(slipping.sum()):,}; eq. (47) needs D of full column rank"
+        f"{_samples(held)}, δ̃ {within:g} or more from every boolean vector on "
+        f"{_samples(int(outside.sum()))}, not sliding on {_samples(int(slipping.sum()))}; "
+        "eq. (47) needs D of full column rank"
     )
 
 

@@ -53,7 +53,13 @@ component's size, :math:`|e^{z}| = 1`; one more outcome is named there:
   cures outright, and is accepted.
 
 The longest step that avoids each outcome is found by bisection of the same conditions, so
-the message can say what step would do.  Pure NumPy: the caller evaluates the Jacobian (the
+the message can say what step would do.  Where that step is shorter than the run's clock
+can take (:math:`t + h` rounds to :math:`t`), no step would do: the state has run away, and
+the Jacobian is stiff only because the state is huge.  ``omega = "-omega"`` as ice_clutch's
+jump map at 1.5 s made ``m`` grow by the mode's own, faithfully integrated, instability to
+-5.7e131 at 6 s, where the message asked for a step of 3.75e-122 s; the run is then refused
+naming the state and the switch since which it grew past float64's precision
+(:func:`_runaway`).  Pure NumPy: the caller evaluates the Jacobian (the
 model's compiled ``DX``).
 """
 
@@ -84,6 +90,10 @@ bisection of :math:`|R| > 1` would stop at rounding (:math:`|1 + 10^{-9}i|` is 1
 
 _SHOWN = 6
 """Most states an error shows of the point where the step fails."""
+
+_PRECISION = 2.0**52
+"""A growth past this factor (``1/ε`` of float64) is a runaway: the value before it is below
+the rounding of the value after, as a state's own scale is lost in it."""
 
 _BISECTIONS = 60
 """Halvings of the interval of steps searched for the longest admissible one."""
@@ -349,6 +359,9 @@ def check_step(
         u = np.ascontiguousarray(inputs[row - 1 if row < last else last - 2])
         flaw = _flaw_at(model, functions.DX, q, start, u, out)
         if flaw is not None and _stays(model, functions, q, start, u, state_min, out):
+            clock = float(np.spacing(max(abs(float(time[row - 1])), float(time[-1] - time[0]))))
+            if flaw.longest_step < clock:  # t + h rounds to t: no step can be taken
+                _refuse_runaway(model, functions, modes, states, time, row, start, flaw)
             pairs = list(zip(model.states, start, strict=True))[:_SHOWN]
             shown = ", ".join(f"{name} = {value:.4g}" for name, value in pairs)
             if model.n_states > _SHOWN:
@@ -366,3 +379,114 @@ def check_step(
                 f"the eigenvalue λ = {_number(flaw.eigenvalue)} 1/s; "
                 f"{flaw.describe(timebase.method)}",
             )
+
+
+def _pieces(
+    modes: IntArray,
+    states: FloatArray,
+    row: int,
+    at: FloatArray,
+) -> list[tuple[int, FloatArray, FloatArray]]:
+    """The run up to the point ``at`` (row ``row``'s start) cut at its switches.
+
+    Each piece ``(k, before, end)``: its first row ``k`` (1 for the run's start, else a row
+    whose mode differs from the one before, the jump applied at ``states[k - 1]``), the state
+    before its jump and the state at its end (before the next jump; ``at`` for the last).
+    """
+    n = min(row, modes.shape[0] - 1)  # the row past the last stands for the run's end
+    ks = [1, *(int(k) for k in np.flatnonzero(modes[2 : n + 1] != modes[1:n]) + 2)]
+    pieces = []
+    for i, k in enumerate(ks):
+        end = at if i == len(ks) - 1 else states[ks[i + 1] - 1]
+        pieces.append((k, states[k - 1], end))
+    return pieces
+
+
+def _refuse_runaway(
+    model: HybridModel,
+    functions: CompiledContinuousModel,
+    modes: IntArray,
+    states: FloatArray,
+    time: FloatArray,
+    row: int,
+    at: FloatArray,
+    flaw: StepFlaw,
+) -> None:
+    """Refuse the run as a runaway when a state grew past :data:`_PRECISION` before ``at``.
+
+    Walking back from the piece of the run (:func:`_pieces`) that ends at ``at``, pieces
+    over which the state grew by more than :data:`_PRECISION` each are the runaway's; it
+    began at the first of them: the run's start, or a switch (named with its jump map's key
+    where one applies, and the state the map put there).  Of the states that ran away, the
+    one grown most is named.  Returns without raising when none did: the step is then what
+    is wrong (a stiff mode at a state of its own scale).
+
+    Raises
+    ------
+    ModelError
+        Naming the key, the state, the switch and times, and the step the flaw asked for.
+    """
+    pieces = _pieces(modes, states, row, at)
+    tiny = float(np.finfo(np.float64).tiny)
+    found: tuple[float, int, int] | None = None  # (log growth, state, first piece)
+    for j in range(model.n_states):
+        first = len(pieces) - 1
+        while first > 0:
+            _, before, end = pieces[first - 1]
+            if not abs(end[j]) > _PRECISION * abs(before[j]):
+                break
+            first -= 1
+        base = abs(pieces[first][1][j])
+        if not abs(at[j]) > _PRECISION * base:
+            continue
+        growth = float(np.log(abs(at[j])) - np.log(max(base, tiny)))
+        if found is None or growth > found[0]:
+            found = (growth, j, first)
+    if found is None:
+        return
+    _, j, first = found
+    k = pieces[first][0]
+    name = model.states[j]
+    grown_from = float(states[k - 1][j])
+    shown = ", ".join(
+        f"{n} = {v:.4g}" for n, v in list(zip(model.states, states[k - 1], strict=True))[:_SHOWN]
+    )
+    if first == 0 and int(modes[k]) == int(modes[k - 1]):
+        key = _dx_key(model, int(modes[k]))
+        since = f"since the run's start at t = {format_time(float(time[0]))} s ({shown})"
+    else:
+        source, target = int(modes[k - 1]), int(modes[k])
+        jump = model.jump_between(source, target)
+        after = states[k - 1].copy()
+        functions.jump(source, target, np.ascontiguousarray(states[k - 1]), after)
+        grown_from = float(after[j])
+        landed = ", ".join(
+            f"{n} = {v:.4g}" for n, v in list(zip(model.states, after, strict=True))[:_SHOWN]
+        )
+        switch = (
+            f"the switch from '{model.modes[source].id}' to '{model.modes[target].id}' at "
+            f"t = {format_time(float(time[k - 1]))} s"
+        )
+        if jump is not None:
+            key = jump.key
+            since = f"since the jump at {switch}, which put it at {landed}"
+        else:
+            key = _dx_key(model, target)
+            since = f"since {switch} ({landed})"
+    method = "explicit Euler" if model.timebase.method == "euler" else "RK4"
+    q = int(modes[min(row, len(modes) - 1)])
+    raise model.error(
+        key,
+        f"the state ran away {since}: {name} grew by the modes' own dynamics, which {method} "
+        f"followed, from {grown_from:.4g} to {at[j]:.4g} at "
+        f"t = {format_time(float(time[row - 1]))} s, by more than float64's precision (2^52); "
+        f"there the Jacobian of mode '{model.modes[q].id}''s dx has the eigenvalue "
+        f"λ = {_number(flaw.eigenvalue)} 1/s, which only a step of {flaw.longest_step:.3g} s "
+        "would follow, shorter than the run's clock can take: change the model's motion, not "
+        "integration.step; nothing was written",
+    )
+
+
+def _dx_key(model: HybridModel, mode: int) -> str:
+    """The key of a mode's ``dx``: ``modes.<id>.dx``, or ``dynamics.dx`` of a model of booleans."""
+    return "dynamics.dx" if model.has_booleans else f"modes.{model.modes[mode].id}.dx"

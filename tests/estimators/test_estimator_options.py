@@ -229,3 +229,58 @@ def test_the_estimator_reference_in_docs_is_generated_from_the_registry():
     assert written == reference_markdown(), (
         "run: python -m hybridlog.estimators > docs/estimators.md"
     )
+
+
+@dataclass(frozen=True)
+class Listed:
+    rates: str = option("-1", "numbers by commas", items=float)
+    lags: str = option("0,1", "whole numbers by commas", items=int)
+    ids: str = option("", "ids by commas", items=str)
+
+
+def test_a_list_option_takes_a_toml_array_from_a_model_file():
+    sources = {k: OptionSource.model_file("m.toml", "toy", k) for k in ("rates", "lags", "ids")}
+    given = {"rates": [-1, -2.5], "lags": [0, 2.0], "ids": ["b", "a"]}
+    built = parse_options(Listed, given, estimator="toy", sources=sources)
+    assert (built.rates, built.lags, built.ids) == ("-1.0,-2.5", "0,2", "b,a")
+    one = parse_options(Listed, {"rates": -3}, estimator="toy", sources=sources)
+    assert one.rates == "-3.0"
+    for name, raw, why in [
+        ("rates", [1, float("nan")], "item 2 of the array: expected a finite number, got 'nan'"),
+        ("lags", [0, 1.5], "item 2 of the array: expected a whole number, got '1.5'"),
+        ("ids", ["a", 2], "item 2 of the array: expected text (a TOML string, in quotes), got '2'"),
+        ("ids", ["a,b"], "item 1 of the array: 'a,b' is no single item"),
+        ("ids", 3, "expected an array of strings or their text separated by commas, got '3'"),
+        ("lags", True, "expected an array of whole numbers or their text"),
+    ]:
+        with pytest.raises(ModelError, match=rf"^m\.toml: estimators\.toy\.{name}: toy option"):
+            parse_options(Listed, {name: raw}, estimator="toy", sources=sources)
+        with pytest.raises(ModelError) as caught:
+            parse_options(Listed, {name: raw}, estimator="toy", sources=sources)
+        assert why in str(caught.value)
+    # --set keeps its text form: the text is the list
+    assert parse_options(Listed, {"rates": "-1,-2"}, estimator="toy").rates == "-1,-2"
+    assert describe_options(Listed)[0].type == "list of float"
+
+
+def test_the_list_options_of_the_estimators_are_marked():
+    listed = {
+        (name, info.name): info.type
+        for name, entry in ESTIMATORS.items()
+        for info in describe_options(entry.options_type)
+        if info.type.startswith("list of")
+    }
+    assert listed == {
+        ("chiu", "output_lags"): "list of int",
+        ("chiu", "input_lags"): "list of int",
+        ("chiu", "cluster_modes"): "list of str",
+        ("kmeans", "output_lags"): "list of int",
+        ("kmeans", "input_lags"): "list of int",
+        ("kmeans", "cluster_modes"): "list of str",
+        ("switching-observer", "eigenvalues"): "list of float",
+    }
+
+
+def test_items_are_declared_only_on_text_options():
+    with pytest.raises(TypeError, match="items= is float, int or str, of a str option"):
+        option(1.0, "a number", items=float)

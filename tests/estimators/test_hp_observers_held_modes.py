@@ -32,7 +32,7 @@ def test_held_samples_count_against_max_unvouched(valves):
         prepare(model, "sliding-mode").run(model, log)
     message = str(caught.value)
     assert message.startswith("three_tank_valves: sliding-mode cannot vouch for σ̂ on ")
-    assert "singular or not finite at the measured state (σ̂ held) on 201," in message
+    assert "singular or not finite at the measured state (σ̂ held) on 201 samples," in message
     assert "\n" not in message and len(message) < 400
 
 

@@ -234,6 +234,36 @@ def test_bad_eigenvalues_in_a_model_file_name_file_and_key_before_any_log(text, 
         prepare(good, "switching-observer", {"eigenvalues": text})
 
 
+@pytest.mark.parametrize(
+    ("array", "words"),
+    [
+        ("[-10, nan, -30]", "item 2 of the array: expected a finite number, got 'nan'"),
+        ('[-10, "a", -30]', "item 2 of the array: expected a finite number, got the string 'a'"),
+        ("[-10, true, -30]", "item 2 of the array: expected a finite number, got 'true'"),
+        ("[-20.0, -30.0]", r"3 states, so give 3 eigenvalues or one, not 2 \('-20\.0,-30\.0'\)"),
+        ("[-10, -20, 30]", "every eigenvalue must be a finite negative real"),
+        ("{a = 1}", "expected an array of numbers or their text separated by commas, got a table"),
+    ],
+)
+def test_eigenvalues_in_a_model_file_may_be_a_toml_array(array, words):
+    # `eigenvalues = [-10.0, -20.0, -30.0]`, as an engineer writes them, was refused as
+    # "expected text"; an array is read as its text is, with the same checks and errors
+    def table(value):
+        text = builtin_text("ice_clutch").replace(
+            'eigenvalues = "-10,-20,-30"', f"eigenvalues = {value}"
+        )
+        return parse_model(text, origin="clutch.toml")
+
+    for value in ("[-10.0, -20.0, -30.0]", "[-10, -20, -30]"):
+        options = prepare(table(value), "switching-observer").options
+        assert options.eigenvalue_list(3) == (-10.0, -20.0, -30.0)
+    assert prepare(table("-5"), "switching-observer").options.eigenvalue_list(3) == (-5, -10, -15)
+    with pytest.raises(
+        ModelError, match=rf"^clutch\.toml: estimators\.switching-observer\.eigenvalues: .*{words}"
+    ):
+        prepare(table(array), "switching-observer")
+
+
 CLUTCH_DT = 0.01
 DWELL = 25  # samples between switches: 0.25 s
 SCALE = np.array([0.1, 100.0, 10.0])  # g, rad/s, N m: the error norm is ‖e / SCALE‖

@@ -304,7 +304,7 @@ def _unexplained_logs(signals):
         # 0.1 mm noise, 100 times the docs' sensitivity: mode accuracy 38 %
         "noise": (replace(signals, outputs=signals.outputs + noise), {}, ""),
         # V_M = 1e-12: w stays 0, σ̂ = 0 throughout (12.5 %), e drifts but less than |x|
-        "no sliding": (signals, {"v_max": 1e-12}, r"boolean vector on 0, the observer not"),
+        "no sliding": (signals, {"v_max": 1e-12}, r"boolean vector on 0 samples, the observer not"),
     }
 
 
@@ -494,3 +494,39 @@ def test_the_least_max_unvouched_told_is_not_below_the_share(count, total, least
     # the same check refuses again (0.01 * 1990 < 20)
     assert least_share(count, total) == least
     assert not least_share(count, total) * total < count
+
+
+@pytest.mark.parametrize(
+    ("outside", "slipping", "held", "told"),
+    [
+        (0, 300, 0, "vector on 0 samples, the observer not sliding"),
+        (1, 300, 0, "vector on 1 sample, the observer not sliding"),
+        (1200, 1, 0, "vector on 1,200 samples, the observer not sliding"),
+        (0, 300, 1, "(σ̂ held) on 1 sample, δ̃ 0.5 or more from every boolean vector on 0 samples"),
+    ],
+)
+def test_the_unvouched_refusal_counts_its_reasons_in_samples(outside, slipping, held, told):
+    # "δ̃ 0.5 or more from every boolean vector on 0" left the reader to guess what 0 counts
+    from types import SimpleNamespace
+
+    from hybridlog.estimators.sliding_mode import _refuse_unvouched
+
+    model = parse_model(VALVES, origin="valves.toml")
+    n = 6501
+
+    def first(count):
+        flags = np.zeros(n, dtype=bool)
+        flags[:count] = True
+        return flags
+
+    signals = SimpleNamespace(n_samples=n)
+    with pytest.raises(DivergenceError) as caught:
+        _refuse_unvouched(model, signals, first(outside), first(slipping), first(held), 0.01)
+    message = str(caught.value)
+    assert told in message
+    if held:
+        assert message.endswith(
+            f"not sliding on {slipping} samples; eq. (47) needs D of full column rank"
+        )
+    else:
+        assert f"|D⁺ė| ≥ 0.5 over 0.02 s, or in the first) on {slipping:,} sample" in message

@@ -368,3 +368,47 @@ def test_a_step_missing_a_growing_modes_growth_by_more_than_e_is_refused():
         jit=False,
     )
     assert log.states[100, 0] == pytest.approx(1 / (1 - 0.9), rel=1e-3)
+
+
+def test_a_state_run_away_since_a_jump_is_refused_naming_the_jump_not_the_step():
+    # omega = "-omega" at the engaging switch (t = 1.5 s) puts ice_clutch where the air mass
+    # m decays no more but grows, -p*omega*(m - m_ss) with omega < 0: RK4 follows it faithfully
+    # to m = -5.7e131 at t = 6 s, where the Jacobian is stiff only because m is huge. The run
+    # was refused as "integration.step: 0.001 s is too long ... a step of at most 3.75e-122 s
+    # avoids it", a step no clock of 8 s can take.
+    from hybridlog.model.builtins import builtin_text
+
+    text = builtin_text("ice_clutch").replace('omega = "JE/(JE + JL)*omega"', 'omega = "-omega"')
+    with pytest.raises(ModelError) as caught:
+        simulate(parse_model(text, origin="clutch.toml"), noise=False)
+    message = str(caught.value)
+    assert message.startswith(
+        'clutch.toml: jumps."0->1": the state ran away since the jump at the switch from '
+        "'0' to '1' at t = 1.5 s, which put it at m = 0.129, omega = -285, T = 25: m grew "
+    )
+    assert "to -5.697e+131 at t = 6 s" in message
+    assert "integration.step:" not in message and message.endswith("nothing was written")
+
+
+def test_a_step_no_clock_can_take_at_a_state_of_its_own_scale_still_blames_the_step():
+    # λ = -1e20 at x2 = 1: the mode is stiff, nothing ran away; the step is what to change
+    text = STIFF.format(method="rk4", step=0.001).replace("-1990*(x2 - x1)", "-1e20*(x2 - x1)")
+    with pytest.raises(ModelError, match=r"^stiff\.toml: integration\.step: 0\.001 s is too long"):
+        simulate(parse_model(text, origin="stiff.toml"), steps=10, noise=False)
+
+
+def test_the_run_is_cut_at_its_switches_up_to_its_end():
+    from hybridlog.model.stability import _pieces
+
+    modes = np.array([0, 0, 0, 1, 1, 0, 0])
+    states = np.arange(7.0).reshape(7, 1)
+    at = np.array([99.0])
+    # row 7, past the last, stands for the run's end (it raised a shape mismatch)
+    for row in (6, 7):
+        cut = [
+            (k, float(before[0]), float(end[0]))
+            for k, before, end in _pieces(modes, states, row, at)
+        ]
+        assert cut == [(1, 0.0, 2.0), (3, 2.0, 4.0), (5, 4.0, 99.0)]
+    cut = [(k, float(before[0]), float(end[0])) for k, before, end in _pieces(modes, states, 3, at)]
+    assert cut == [(1, 0.0, 2.0), (3, 2.0, 99.0)]
