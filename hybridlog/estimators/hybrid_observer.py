@@ -410,6 +410,39 @@ def _last_interval(
     )
 
 
+def _jump_before(
+    model: HybridModel, signals: AlignedSignals, arguments: tuple[Any, ...], first: int
+) -> str:
+    """The jump map that opened the mode diverging at ``first``, when it made the fit worse.
+
+    A map the log does not bear out (``omega = "-omega"`` where the engine speed keeps its
+    sign) throws the estimate far from the measurement; the correction ``Q⁻¹K(y − h)`` then
+    diverges a few samples later in a mode whose expressions are all finite, and the
+    refusal named the gain alone.  Named when a map was applied at the switch that began
+    the mode running at ``first`` (eqs. (45)-(46) of paper 004 are such maps) and the output
+    error just after it is larger than just before it.
+    """
+    modes, outputs = arguments[1], arguments[3]
+    predictions, jumped = arguments[11], arguments[13]
+    start = first
+    while start > 0 and modes[start - 1] == modes[first]:
+        start -= 1
+    if start < 2 or not jumped[start]:
+        return ""
+    jump = model.jump_between(int(modes[start - 1]), int(modes[start]))
+    after, before = float(outputs[start, 0]), float(outputs[start - 1, 0])
+    error_after = abs(after - float(predictions[start]))
+    error_before = abs(before - float(predictions[start - 1]))
+    if jump is None or not error_after > error_before:  # NaN (not measured): no claim
+        return ""
+    samples = first - start
+    return (
+        f"; the jump map {jump.key} at t = {format_time(signals.time[start])} s, "
+        f"{samples} sample{'s' if samples != 1 else ''} before, left the estimate predicting "
+        f"{model.outputs[0]} = {float(predictions[start]):.6g} against {after:.6g} measured"
+    )
+
+
 def _singular_q(
     model: HybridModel,
     signals: AlignedSignals,
@@ -602,6 +635,7 @@ def _divergence(
     )
     origin = model.origin or model.name
     last = _last_interval(model, signals, states, predictions, first)
+    last += _jump_before(model, signals, arguments, first)
     if first < 1:
         return DivergenceError(f"{origin}: {where}")
     module, escape = _replay(model, arguments, first)

@@ -15,6 +15,7 @@ import pytest
 
 from hybridlog.errors import ModelError
 from hybridlog.estimators import prepare
+from hybridlog.model.builtins import builtin_text
 from hybridlog.model.loader import load_model
 from hybridlog.simulate import simulate
 
@@ -57,3 +58,28 @@ def test_a_broken_first_step_has_no_prediction_to_show(clutch):
     assert "(sample 1): " in message
     assert "; the interval before corrected with y = 1.4" in message
     assert " measured at the estimate m = " in message and "predicted" not in message
+
+
+def test_a_jump_map_the_log_does_not_bear_out_is_named(tmp_path):
+    """``omega = "-omega"`` at the clutch's engagement: the estimate diverged 4 samples later
+    and the refusal named the gain alone, never the map that threw it off the log."""
+    text = builtin_text("ice_clutch")
+    edited = text.replace('omega = "JE/(JE + JL)*omega"', 'omega = "-omega"')
+    assert edited != text
+    path = tmp_path / "clutch.toml"
+    path.write_text(edited)
+    plant = load_model("ice_clutch")
+    signals = simulate(plant, steps=700, noise=False).signals(plant)
+    model = load_model(str(path))
+    with pytest.raises(ModelError) as caught:
+        prepare(model, "switching-observer").run(model, signals)
+    message = str(caught.value)
+    named = re.search(
+        r'; the jump map jumps\."0->1" at t = (\S+) s, (\d+) samples? before, left the '
+        r"estimate predicting y = (\S+) against (\S+) measured$",
+        message,
+    )
+    assert named is not None, message
+    assert float(named.group(3)) < 0 < float(named.group(4))
+    switch = int(np.flatnonzero(np.diff(signals.truth_modes))[-1]) + 1
+    assert float(named.group(1)) == pytest.approx(signals.time[switch])
