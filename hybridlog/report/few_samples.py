@@ -2,6 +2,7 @@
 
 :data:`FEW_SAMPLES` and :func:`few_samples_warning`, which names each metric over fewer and
 how far off its variance may be; its text ends with :data:`FEW_SAMPLES_REMEDY`.
+:func:`few_samples_of` is the count behind one gated metric, for the gate's own line.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from collections.abc import Mapping
 from hybridlog.report.document import Report
 from hybridlog.report.markdown import WARNING_PREFIX, plural
 
-__all__ = ["FEW_SAMPLES", "FEW_SAMPLES_REMEDY", "few_samples_warning"]
+__all__ = ["FEW_SAMPLES", "FEW_SAMPLES_REMEDY", "few_samples_of", "few_samples_warning"]
 
 FEW_SAMPLES = 30
 """Fewest samples a metric is taken over without a warning that it describes those samples,
@@ -92,3 +93,29 @@ def few_samples_warning(report: Report) -> str | None:
         "these samples, not the estimator: the filter's start weighs as much as the rest, and "
         f"a variance over n samples is off by sqrt(2/(n-1)) of itself{spread}; {FEW_SAMPLES_REMEDY}"
     )
+
+
+_OUTPUT_METRICS = frozenset({"vaf", "fit", "mse"})
+
+
+def few_samples_of(report: Report, name: str) -> int | None:
+    """The samples behind the gated metric ``name`` when fewer than :data:`FEW_SAMPLES`.
+
+    ``vaf``, ``fit`` and ``mse`` (a mean over the outputs: its least count), ``vaf.y1``,
+    ``mode_accuracy`` (``.c`` a component's) and ``state_rmse.x``, counted as
+    :func:`few_samples_warning` counts them; ``None`` for at least that many, a metric over
+    none (``null``, which says why) and the metrics not of samples (switch counts, delays).
+    A met gate read ``met (vaf = 0.9)`` over 4 samples, the warning printed apart from it.
+    """
+    base, dot, qualifier = name.partition(".")
+    counts: list[int | None] = []
+    if base in _OUTPUT_METRICS:
+        chosen = [report.outputs.get(qualifier)] if dot else list(report.outputs.values())
+        counts = [o.samples for o in chosen if o is not None]
+    elif base == "mode_accuracy":
+        modes = report.modes.components.get(qualifier) if dot else report.modes
+        counts = [None if modes is None else modes.samples]
+    elif base == "state_rmse" and qualifier in report.states:
+        counts = [report.states[qualifier].samples]
+    least = min((n for n in counts if n), default=None)
+    return least if least is not None and least < FEW_SAMPLES else None

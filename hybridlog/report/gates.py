@@ -607,13 +607,15 @@ def _which_side(report: Report, name: str) -> str:
 
 
 def _over_part(report: Report, name: str) -> str:
-    """A mode metric over part of the log: its samples, or the switches left undetermined.
+    """A metric over part of the log or few samples: which, or the switches left undetermined.
 
     A true mode that starts late is scored from its first sample on: ``mode_accuracy = 1 is
     under ...`` would read as the whole log's (:mod:`hybridlog.report.coverage`).  Likewise
     ``missed_switches`` counts the definite misses only: where the true mode's gaps leave some
     switches undetermined, how many (``met (missed_switches = 0)`` read as every switch
-    detected).
+    detected).  A metric over fewer than ``FEW_SAMPLES`` samples says how few
+    (:func:`~hybridlog.report.few_samples.few_samples_of`): ``met (vaf = 0.9)`` over 4
+    samples passed CI with the warning printed apart from the gate.
     """
     base, dot, qualifier = name.partition(".")
     if base == "missed_switches":
@@ -626,10 +628,16 @@ def _over_part(report: Report, name: str) -> str:
             f"{'switch' if detection.undetermined == 1 else 'switches'}: the true mode's gaps "
             "cut their windows short)"
         )
-    if base != "mode_accuracy":
-        return ""
-    part = component_coverage(report, qualifier) if dot else mode_coverage(report)
-    return "" if part is None else f" over {part}"
+    part = None
+    if base == "mode_accuracy":
+        part = component_coverage(report, qualifier) if dot else mode_coverage(report)
+    if part is not None:
+        return f" over {part}"
+    from hybridlog.report.few_samples import few_samples_of  # which imports this module
+    from hybridlog.report.markdown import plural
+
+    few = few_samples_of(report, name)
+    return "" if few is None else f" over only {plural(few, 'sample')}"
 
 
 def _no_fallbacks(report: Report) -> str:

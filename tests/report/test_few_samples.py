@@ -19,6 +19,7 @@ from hybridlog.io import SignalSpec, load_signals
 from hybridlog.model.loader import load_model
 from hybridlog.report import build_report, render_markdown
 from hybridlog.report.few_samples import FEW_SAMPLES
+from hybridlog.report.gates import evaluate_gates, met_value, parse_gates
 from hybridlog.report.markdown import WARNING_PREFIX
 from tests.support.cpha import cpha_truth_log
 
@@ -93,3 +94,16 @@ def test_a_components_accuracy_over_few_samples_warns_without_a_joint_one(
         f"{WARNING_PREFIX}mode accuracy of components A1, A2 over 12 (A1), 10 (A2): fewer than"
     )
     assert "(47% at 10)" in warning
+
+
+def test_a_gate_over_few_samples_says_so_in_its_own_line() -> None:
+    """``met (vaf = 0.9)`` over 4 samples passed CI with the warning printed apart."""
+    result, signals = make_run(5, seed=3)
+    report = build_report(result, signals, log="run.csv", model_name="m", dt=DT)
+    assert met_value(report, "vaf", 0.5, 0.0).endswith(" over only 4 samples")
+    assert met_value(report, "state_rmse.x1", 0.5, 1.0).endswith(" over only 5 samples")
+    (missed,) = evaluate_gates(report, parse_gates([], ["mse=0"]))
+    assert " over only 4 samples is over the bound 0" in missed
+    long_result, long_signals = make_run(FEW_SAMPLES + 1, seed=3)
+    long = build_report(long_result, long_signals, log="run.csv", model_name="m", dt=DT)
+    assert met_value(long, "vaf", 0.5, 0.0) == "vaf = 0.5"

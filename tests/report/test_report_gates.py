@@ -42,13 +42,13 @@ def report(*, truth: bool = True) -> Report:
         model="m",
         estimator="imm",
         options={},
-        samples=5,
+        samples=41,
         dt=1.0,
         t_start=0.0,
-        t_end=4.0,
+        t_end=40.0,
         outputs={
-            "y1": OutputReport(mse=0.02, vaf=87.2, fit=None, samples=4),
-            "y2": OutputReport(mse=0.5, vaf=None, fit=None, samples=4),
+            "y1": OutputReport(mse=0.02, vaf=87.2, fit=None, samples=40),
+            "y2": OutputReport(mse=0.5, vaf=None, fit=None, samples=40),
         },
         mse=0.26,
         vaf=87.2,
@@ -200,7 +200,7 @@ def test_all_gates_met_gives_no_messages() -> None:
         ["mse=0.3", "mse.y2=0.5", "state_rmse.x1=0.2", "detection_delay_s=1", "missed_switches=1"],
     )
     every_output = replace(
-        report(), outputs={**report().outputs, "y2": OutputReport(0.5, 87.2, None, 4)}
+        report(), outputs={**report().outputs, "y2": OutputReport(0.5, 87.2, None, 40)}
     )
     assert evaluate_gates(every_output, gates) == []
 
@@ -208,7 +208,7 @@ def test_all_gates_met_gives_no_messages() -> None:
 def test_missed_gates_name_metric_value_and_bound() -> None:
     gates = parse_gates(["vaf=90", "mode_accuracy=0.95"], ["mse.y2=0.1", "runtime_s=1"])
     every_output = replace(
-        report(), outputs={**report().outputs, "y2": OutputReport(0.5, 87.2, None, 4)}
+        report(), outputs={**report().outputs, "y2": OutputReport(0.5, 87.2, None, 40)}
     )
     assert evaluate_gates(every_output, gates) == [
         "vaf = 87.2 is under the bound 90",
@@ -249,8 +249,8 @@ def test_fit_gates_overall_and_per_output() -> None:
     fitted = replace(
         report(),
         outputs={
-            "y1": OutputReport(mse=None, vaf=None, fit=92.5, samples=4),
-            "y2": OutputReport(mse=None, vaf=None, fit=None, samples=4),
+            "y1": OutputReport(mse=None, vaf=None, fit=92.5, samples=40),
+            "y2": OutputReport(mse=None, vaf=None, fit=None, samples=40),
         },
         fit=92.5,
         null_reasons={"fit.y2": "‖y − mean(y)‖ = 0: the measurement is constant"},
