@@ -642,14 +642,28 @@ class TopicReader:
         if same.any():
             first = int(np.argmax(same)) + 1
             if not sort:
+                instead = "" if self.header else self._stamps_instead()
                 raise LogError(
                     f"{source.path}: {what}: {int(same.sum())} message(s){among} have "
                     f"the same {word} as the one before (first at "
                     f"t={format_ns(int(time_ns[first]))} s); --sort keeps the last of each"
+                    + instead.replace("; ", ", or ", 1)
                 )
             keep = np.append(~same, True)
             source._notes.setdefault("duplicates_dropped", {})[key] = int(same.sum())
         return order, keep
+
+    def _stamps_instead(self) -> str:
+        """``; --time header reads ...`` where the topic's messages carry ``header.stamp``.
+
+        Log times that repeat or never change are the recorder's (messages taken in a burst);
+        the publisher's stamps may still tell the messages apart.
+        """
+        try:
+            self.source._check_header(self.topic)
+        except LogError:
+            return ""  # no other time in these messages
+        return "; --time header reads each message's header.stamp instead"
 
     def _refuse_one_time(self, time_ns: IntArray, what: str) -> None:
         """Refuse a topic whose every message (three or more) has one and the same time.
@@ -665,12 +679,7 @@ class TopicReader:
         if self.header:
             cause = "the publisher stamped them all alike; use --time log"
         else:
-            cause = "the recorder did not set log times"
-            try:
-                self.source._check_header(self.topic)
-                cause += "; --time header reads each message's header.stamp instead"
-            except LogError:
-                pass  # no other time in these messages
+            cause = "the recorder did not set log times" + self._stamps_instead()
         word = "header.stamp" if self.header else "log time"
         raise LogError(
             f"{self.source.path}: {what}: all {time_ns.size} messages have the same {word}, "
