@@ -527,7 +527,11 @@ class MessageSource(abc.ABC):
                 # what analyze refuses when the field is mapped, said before it is
                 problems.extend(
                     f"{excerpt(spelt_path(name, path, shared))}: {text}"
-                    for path, text in {**counter.unheld, **counter.mixed()}.items()
+                    for path, text in {
+                        **counter.unheld,
+                        **counter.mixed(),
+                        **counter.uneven(),
+                    }.items()
                 )
         total = sum(t["count"] for t in topics)
         return {

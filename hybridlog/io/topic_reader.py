@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from hybridlog.errors import LogError, excerpt
+from hybridlog.io.array_lengths import ArrayLengths
 from hybridlog.io.exact import EXACT_LIMIT, beyond_exact, inexact
 from hybridlog.io.fixed_messages import single_floats
 from hybridlog.io.header_stamps import (
@@ -87,6 +88,8 @@ class _Wanted:
     """JSON: the keys found where the path's missing key was looked for, for the message."""
     missing: str = ""
     """JSON: the first key of the path found missing."""
+    lengths: ArrayLengths | None = None
+    """The arrays the path indexes, held to one length in every message (``None``: none)."""
 
 
 _HELD_EXACTLY = NUMERIC_TYPES - WIDE_INTEGER_TYPES
@@ -118,7 +121,9 @@ class TopicReader:
     def want(self, text: str, path: MessagePath, kind: str) -> None:
         """Read the path ``text`` of the messages as ``kind``, ``number`` or ``label`` (once)."""
         if not any(w.text == text and w.kind == kind for w in self.wanted):
-            self.wanted.append(_Wanted(text, path, kind))
+            indexed = any(isinstance(step, int) for step in path.steps)
+            lengths = ArrayLengths(path.steps) if indexed else None
+            self.wanted.append(_Wanted(text, path, kind, lengths=lengths))
             self._streamed = None
 
     def _where(self, times: Sequence[int], row: int) -> str:
@@ -159,6 +164,9 @@ class TopicReader:
                             self._refuse_overflow(wanted, values[part], datas, times, first)
                     else:
                         self._read_labels(messages, wanted, labels, here)
+                    if wanted.lengths is not None:
+                        lengths = wanted.lengths.of_each(messages)
+                        self._check_lengths(wanted, lengths, times[part])
                 except RowError as err:
                     reason = str(err.error)
                     if not reason.startswith(("the message", ".", "[")):
@@ -261,6 +269,7 @@ class TopicReader:
         if self.header or decode is None or not self._streamable():
             return False
         gets = [accessor(w.path.steps) for w in self.wanted]
+        gets += [get for w in self.wanted if w.lengths is not None for get in w.lengths.getters]
         width = len(gets)
         read: Callable[[object], object] = gets[0]
         if width > 1:
@@ -273,12 +282,35 @@ class TopicReader:
             )
         except Exception:  # any decoder or path failure: the careful reading names it
             return False
-        columns = [values] if width == 1 else [values[:, k].copy() for k in range(width)]
+        wanted_count = len(self.wanted)
+        if width > wanted_count:  # the lengths of the arrays indexed, after the values
+            lengths: IntArray = values[:, wanted_count:].astype(np.int64)
+            for wanted in self.wanted:
+                if wanted.lengths is not None:
+                    count = len(wanted.lengths.arrays)
+                    self._check_lengths(wanted, lengths[:, :count], times)
+                    lengths = lengths[:, count:]
+        columns = [values] if width == 1 else [values[:, k].copy() for k in range(wanted_count)]
         for wanted, column in zip(self.wanted, columns, strict=True):
             wanted.values.append(column)
         self.log_times.append(np.asarray(times, dtype=np.int64))
         self.count += len(datas)
         return True
+
+    def _check_lengths(self, wanted: _Wanted, lengths: IntArray, times: Sequence[int]) -> None:
+        """Refuse messages whose arrays ``wanted`` indexes differ in length (:class:`ArrayLengths`).
+
+        Raises
+        ------
+        LogError
+            Naming the topic, the path, the array and the two messages.
+        """
+        assert wanted.lengths is not None
+        reason = wanted.lengths.check(lengths, times)
+        if reason is not None:
+            raise LogError(
+                f"{self.source.path}: topic {self.topic.label}: {wanted.text!r}: {reason}"
+            )
 
     def _refuse_overflow(
         self,
@@ -610,14 +642,28 @@ class TopicReader:
         if same.any():
             first = int(np.argmax(same)) + 1
             if not sort:
+                instead = "" if self.header else self._stamps_instead()
                 raise LogError(
                     f"{source.path}: {what}: {int(same.sum())} message(s){among} have "
                     f"the same {word} as the one before (first at "
                     f"t={format_ns(int(time_ns[first]))} s); --sort keeps the last of each"
+                    + instead.replace("; ", ", or ", 1)
                 )
             keep = np.append(~same, True)
             source._notes.setdefault("duplicates_dropped", {})[key] = int(same.sum())
         return order, keep
+
+    def _stamps_instead(self) -> str:
+        """``; --time header reads ...`` where the topic's messages carry ``header.stamp``.
+
+        Log times that repeat or never change are the recorder's (messages taken in a burst);
+        the publisher's stamps may still tell the messages apart.
+        """
+        try:
+            self.source._check_header(self.topic)
+        except LogError:
+            return ""  # no other time in these messages
+        return "; --time header reads each message's header.stamp instead"
 
     def _refuse_one_time(self, time_ns: IntArray, what: str) -> None:
         """Refuse a topic whose every message (three or more) has one and the same time.
@@ -633,12 +679,7 @@ class TopicReader:
         if self.header:
             cause = "the publisher stamped them all alike; use --time log"
         else:
-            cause = "the recorder did not set log times"
-            try:
-                self.source._check_header(self.topic)
-                cause += "; --time header reads each message's header.stamp instead"
-            except LogError:
-                pass  # no other time in these messages
+            cause = "the recorder did not set log times" + self._stamps_instead()
         word = "header.stamp" if self.header else "log time"
         raise LogError(
             f"{self.source.path}: {what}: all {time_ns.size} messages have the same {word}, "

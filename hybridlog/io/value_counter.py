@@ -26,7 +26,14 @@ from hybridlog.io.message_leaves import (
     first_unheld,
     message_leaf_values,
 )
-from hybridlog.io.message_paths import FLOAT_TYPES, PathError, UndecodableError, decode_each
+from hybridlog.io.message_paths import (
+    FLOAT_TYPES,
+    PathError,
+    UndecodableError,
+    accessor,
+    decode_each,
+    format_steps,
+)
 from hybridlog.io.message_topics import Topic
 from hybridlog.io.source import format_ns, seconds_of
 from hybridlog.io.summary import count_nonfinite
@@ -68,6 +75,9 @@ class ValueCounter:
         come.
     wide_leaves:
         Its ``int64``/``uint64`` leaves (ROS messages), whose values are checked, not counted.
+    arrays:
+        The steps to its arrays outside arrays of messages (ROS messages), whose lengths are
+        held to one in every message where a path reads one by index (:meth:`uneven`).
     """
 
     def __init__(
@@ -75,10 +85,13 @@ class ValueCounter:
         topic: Topic,
         float_leaves: list[DeepLeaf] | None,
         wide_leaves: Sequence[DeepLeaf] = (),
+        arrays: Sequence[tuple[str, ...]] = (),
     ) -> None:
         self.topic = topic
         self.leaves = float_leaves
         self.wide = wide_leaves
+        # field path of an array outside arrays of messages -> its fewest and most elements
+        self._lengths: dict[tuple[str, ...], list[int]] = {steps: [] for steps in arrays}
         self.problem: str | None = None
         self.stamps = HeaderStamps(topic) if may_have_stamps(topic) else None
         # field path after the topic -> the first value beyond 2^53 a float64 does not hold
@@ -114,10 +127,16 @@ class ValueCounter:
         if topic.typedefs is None or topic.msgtype not in topic.typedefs:
             return None
         found = deep_leaves(topic.typedefs, topic.msgtype)
+        arrays = [leaf.arrays[0] if leaf.arrays else leaf.leaf.steps for leaf in found]
         return cls(
             topic,
             [leaf for leaf in found if leaf.leaf.type_name in FLOAT_TYPES],
             [leaf for leaf in found if leaf.leaf.type_name in WIDE_INTEGER_TYPES],
+            list(
+                dict.fromkeys(
+                    a for a, f in zip(arrays, found, strict=True) if f.arrays or f.leaf.array
+                )
+            ),
         )
 
     def add(self, data: bytes, log_time: int) -> None:
@@ -126,7 +145,7 @@ class ValueCounter:
         Or :data:`DECODED_BYTES_AT_ONCE`: a part of large messages is decoded sooner.
         """
         if self.problem is not None or (
-            self.leaves == [] and not self.wide and self.stamps is None
+            self.leaves == [] and not self.wide and self.stamps is None and not self._lengths
         ):
             return
         self._datas.append(data)
@@ -212,6 +231,35 @@ class ValueCounter:
                     )
         return found
 
+    def uneven(self) -> dict[str, str]:
+        """Why ``analyze`` refuses an index into each array whose length differs by message.
+
+        Per path (``.position[]``), the fewest and the most elements its messages hold:
+        an index names one signal only in arrays of one length in every message
+        (:mod:`hybridlog.io.array_lengths`).
+        """
+        return {
+            format_steps(steps) + "[]": (
+                f"its messages hold {fewest} to {most} elements: analyze refuses an index "
+                "into it (one index names one signal only in arrays of one length in every "
+                "message; two publishers on one topic?)"
+            )
+            for steps, (fewest, most) in ((s, v) for s, v in self._lengths.items() if v)
+            if fewest != most
+        }
+
+    def _measure(self, messages: list[object]) -> None:
+        """Widen each array's range of lengths by those in ``messages``."""
+        for steps, seen in self._lengths.items():
+            get = accessor(steps)
+            try:
+                lengths = [len(get(message)) for message in messages]  # type: ignore[arg-type]
+            except (AttributeError, IndexError, KeyError, TypeError):
+                continue  # a renamed field (``from_``): no index is checked here
+            if lengths:
+                fewest, most = min(lengths), max(lengths)
+                seen[:] = [min(seen[0], fewest), max(seen[1], most)] if seen else [fewest, most]
+
     def _count(self) -> None:
         datas, times = self._datas, self._times
         self._datas, self._times, self._held = [], [], 0
@@ -253,6 +301,7 @@ class ValueCounter:
                     )
                     return
             return
+        self._measure(messages)
         # the elements of each array of messages, gathered once for all the leaves in them
         elements: dict[tuple[tuple[str, ...], ...], list[object]] = {(): messages}
         for leaf in self.leaves:
