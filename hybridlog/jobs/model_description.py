@@ -25,6 +25,7 @@ from hybridlog.jobs.estimation import estimator_inputs
 from hybridlog.model.cache import load_model
 from hybridlog.model.diagnosis import model_diagnoses
 from hybridlog.model.hybrid_model import HybridModel
+from hybridlog.model.reads import unread_parameters
 
 __all__ = ["check_and_describe"]
 
@@ -81,6 +82,7 @@ def check_and_describe(path: Path) -> str:
             *_switching_lines(model, suited),
             default_line,
             *model_diagnoses(model),
+            *unread_parameters(model),
         ]
     )
 

@@ -36,7 +36,7 @@ from hybridlog.model.toml_text import key_path, read_toml
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
 
-__all__ = ["refuse_unread_by_analysis", "refuse_unread_by_simulation"]
+__all__ = ["refuse_unread_by_analysis", "refuse_unread_by_simulation", "unread_parameters"]
 
 PROSE_KEYS = frozenset({"name", "description", "reference"})
 """Top-level keys whose strings are prose, not expressions: no name in them is read as a symbol
@@ -220,6 +220,31 @@ def refuse_unread_by_analysis(model: HybridModel, texts: Mapping[str, str]) -> N
             f"{_given(name, texts)}: parameters.{name} of {model.origin or model.name} is "
             f"named only {_why(where)}: it would change nothing here"
         )
+
+
+def unread_parameters(model: HybridModel) -> list[str]:
+    """A ``NOTE:`` line per ``[parameters]`` entry no expression of the model reads.
+
+    Named in no string outside the prose keys, or only in keys that hold no expression
+    (:func:`_holds_no_expression`): a value the file gives that no command uses, a leftover
+    of an edit or the intended spelling of a name the equations write otherwise (a name they
+    use that is no parameter is refused), said by ``hybridlog models FILE`` (a ``--set`` of
+    it is refused).
+    """
+    leaves = _named_by(model)
+    lines = []
+    for name in model.parameters:
+        tables = [p for p, names in leaves if name in names]
+        if any(_holds_no_expression(p) is None for p in tables):
+            continue
+        where = sorted({_dotted(p) for p in tables})
+        named = f"named only in {', '.join(where)}, read as no expression" if where else ""
+        lines.append(
+            f"NOTE: parameters.{name} is read by no expression of the model"
+            f"{f' ({named})' if named else ''}: a leftover, or a name the equations spell "
+            "otherwise?"
+        )
+    return lines
 
 
 def refuse_unread_by_simulation(

@@ -13,9 +13,10 @@ from pathlib import Path
 import pytest
 
 from hybridlog.errors import OptionError
+from hybridlog.jobs.model_description import check_and_describe
 from hybridlog.jobs.overrides import parse_sets
 from hybridlog.jobs.simulate import simulate_log
-from hybridlog.model.builtins import builtin_text
+from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.loader import parse_model
 from hybridlog.model.reads import refuse_unread_by_simulation
 from tests.support.cli import run_main
@@ -318,3 +319,25 @@ def test_simulate_refuses_an_unmade_switchs_parameter_on_the_command_line(
     code, output = run_main(args, capsys)
     assert code == 2 and output.count("\n") == 1 and not out.exists()
     assert output.startswith(f"hybridlog: error: --set r=2: parameters.r of {model} is named ")
+
+
+def test_models_file_notes_each_parameter_no_expression_reads(tmp_path: Path) -> None:
+    """A parameter named nowhere, or only where no expression is read, passed ``models FILE``
+    without a word: a leftover of an edit, or a name the equations spell otherwise."""
+    text = builtin_text("ice_clutch").replace(
+        "[parameters]", "[parameters]\nkk2 = 3.0\nleft_over = 1.0", 1
+    )
+    text = text.replace("[noise]", '[signals]\ny = "/kk2.data"\n\n[noise]', 1)
+    path = tmp_path / "clutch.toml"
+    path.write_text(text, encoding="utf-8")
+    notes = [line for line in check_and_describe(path).splitlines() if "parameters." in line]
+    assert notes == [
+        "NOTE: parameters.kk2 is read by no expression of the model (named only in signals.y, "
+        "read as no expression): a leftover, or a name the equations spell otherwise?",
+        "NOTE: parameters.left_over is read by no expression of the model: a leftover, or a "
+        "name the equations spell otherwise?",
+    ]
+    for name in builtin_names():
+        builtin = tmp_path / f"{name}.toml"
+        builtin.write_text(builtin_text(name), encoding="utf-8")
+        assert "NOTE: parameters." not in check_and_describe(builtin), name
