@@ -43,6 +43,11 @@ def eigenvalue_values(text: str) -> list[float]:
     ValueError
         With the reason, for text that is not that.
     """
+    if not text.strip():  # an empty TOML array reads as this text (``eigenvalues = []``)
+        raise ValueError(
+            "expected one negative number, or one per state, got none "
+            f"(default {DEFAULT_EIGENVALUES})"
+        )
     values: list[float] = []
     for part in text.split(","):
         try:

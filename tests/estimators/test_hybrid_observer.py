@@ -243,6 +243,7 @@ def test_bad_eigenvalues_in_a_model_file_name_file_and_key_before_any_log(text, 
         ("[-20.0, -30.0]", r"3 states, so give 3 eigenvalues or one, not 2 \('-20\.0,-30\.0'\)"),
         ("[-10, -20, 30]", "every eigenvalue must be a finite negative real"),
         ("{a = 1}", "expected an array of numbers or their text separated by commas, got a table"),
+        ("[]", r"expected one negative number, or one per state, got none \(default -5\)$"),
     ],
 )
 def test_eigenvalues_in_a_model_file_may_be_a_toml_array(array, words):
