@@ -73,7 +73,7 @@ class ComponentsLog:
     controller:
         The controller's memory per row, ``(N, n_memory)``.
     notes:
-        Scenario events ``steps`` cut off (:func:`_cut_events`), printed by the CLI.
+        Scenario events the run ends before (:func:`_cut_events`), printed by the CLI.
     unreached:
         Per component, each mode of its ``simulation.modes`` schedule the run ended before
         (a ``--steps`` shorter than the scenario) → the step the scenario starts it.
@@ -205,6 +205,13 @@ def simulate_components(
     n_steps = steps or scenario.steps or 100
     rows = n_steps + 1
     where = "--steps" if steps else f"{origin}: simulation.steps"
+    ends = (
+        f"--steps {n_steps:,}"
+        if steps
+        else f"simulation.steps = {n_steps:,}"
+        if scenario.steps
+        else f"the default of {n_steps} steps (no --steps, no simulation.steps)"
+    )
     check_run(model, rows, where, log_format)
 
     labels = _mode_labels(model, scenario, rows, at)
@@ -309,7 +316,7 @@ def simulate_components(
         commands=commands,
         modes=modes,
         controller=memory_log,
-        notes=_cut_events(scenario, rows, at, labels) if steps is not None else (),
+        notes=_cut_events(scenario, rows, at, labels, ends),
         unreached=_unreached(scenario, at, labels),
         unstarted={
             i: start
@@ -333,12 +340,18 @@ def _unreached(
 
 
 def _cut_events(
-    scenario: Scenario, rows: int, at: StepValues, labels: Mapping[str, list[str]]
+    scenario: Scenario,
+    rows: int,
+    at: StepValues,
+    labels: Mapping[str, list[str]],
+    ends: str,
 ) -> tuple[str, ...]:
-    """A note naming the scheduled modes and unmodelled behaviours ``--steps`` cuts off.
+    """A note naming the scheduled modes and unmodelled behaviours the run's end cuts off.
 
     ``bioplex_pgc --steps 500`` wrote a run without its drift (from step 700) or its light
-    fault (900), without a word: a user who asked for the scenario took it for one.  As for
+    fault (900), without a word: a user who asked for the scenario took it for one; so did
+    ``--set light_fault=1600`` on the scenario's own 1,500 steps.  ``ends`` names what ended
+    the run (``--steps 500``, ``simulation.steps = 1,500``).  As for
     a plain model's schedule (:func:`hybridlog.simulation_schedule.cut_schedule`), what is noted is
     what never runs: a component's scheduled mode it never takes, a behaviour that never
     starts (a repair back to a mode the run already had is no news).
@@ -360,7 +373,7 @@ def _cut_events(
         return ()
     cut.sort()
     return (
-        f"--steps {rows - 1:,} ends the run before these events of {at.origin}'s scenario, "
+        f"{ends} ends the run before these events of {at.origin}'s scenario, "
         f"which never run: {first_few(cut, 5, lambda event: event[1], separator='; ')}",
     )
 

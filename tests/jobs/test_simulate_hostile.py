@@ -197,6 +197,17 @@ def test_steps_that_end_a_scenario_before_its_events_say_so(
     assert code == 0 and "light_fault" not in output and "drift_start = 700" in output
     code, output = _run([*args[:5], "1000", "--force"], capsys)
     assert code == 0 and "note" not in output
+    # the scenario's own steps end the run too: a fault moved past them was a run without it
+    moved = ["--set", "light_fault=1600", "--set", "light_repair=1700"]
+    code, output = _run([*args[:4], "--force", *moved], capsys)
+    assert (
+        code == 0
+        and (
+            "note: simulation.steps = 1,500 ends the run before these events of bioplex_pgc's "
+            "scenario, which never run: simulation.modes.ls: one_bank_out at light_fault = 1600\n"
+        )
+        in output
+    )
 
 
 def test_a_controller_overflow_is_said_in_words_not_as_an_errno_tuple() -> None:
