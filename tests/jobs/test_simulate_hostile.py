@@ -254,8 +254,12 @@ def test_what_the_simulation_reads_is_checked_before_its_output(
     ("options", "said"),
     [
         ({"schedule": "1:10"}, "--schedule: bioplex_pgc is a components model; its components'"),
-        ({"disturbance": "1,2"}, "--disturbance: bioplex_pgc is a components model; its noise"),
-        ({"noise": False}, "--no-noise: bioplex_pgc is a components model; its noise"),
+        (
+            {"disturbance": "1,2"},
+            "--disturbance: bioplex_pgc is a components model; what its modes do not describe",
+        ),
+        # "its noise ... set in its [simulation] table": no key there sets noise
+        ({"noise": False}, "--no-noise: bioplex_pgc is a components model, simulated with the "),
     ],
 )
 def test_options_a_components_model_does_not_read_are_refused_before_its_output(
