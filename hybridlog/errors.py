@@ -86,6 +86,11 @@ def prefixed(err: HybridlogError, prefix: str) -> HybridlogError:
     return _kind(err)(f"{prefix}{err}", named=err.named)
 
 
+def suffixed(err: HybridlogError, suffix: str) -> HybridlogError:
+    """``err``'s message, then ``suffix``, as an error of its kind (as :func:`prefixed`)."""
+    return _kind(err)(f"{err}{suffix}", named=err.named)
+
+
 def after_given(err: HybridlogError, given: Mapping[str, str]) -> HybridlogError:
     """``err``, then the command-line values that changed what failed: ``(after --set fE=1000)``.
 

@@ -25,7 +25,14 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, cast
 
-from hybridlog.errors import DivergenceError, LogError, ModelError, OptionError, excerpt
+from hybridlog.errors import (
+    DivergenceError,
+    LogError,
+    ModelError,
+    OptionError,
+    excerpt,
+    suffixed,
+)
 from hybridlog.estimators.capabilities import (
     STEP_FROM_NOTE,
     STEP_INTO_OUTPUTS_WARNING,
@@ -517,11 +524,12 @@ class Prepared:
     ) -> EstimationResult:
         """The estimator's whole result, its modes moved where :meth:`moves_modes` says."""
         self.check_signals(model, signals)
-        with self._numerical_trouble(model), self._option_keys():
-            result: EstimationResult = self.estimator.run_function(
-                model, signals, self.options, **inputs
-            )
-        self._vouch(model, signals, result)
+        with self._rules_left_out(model):
+            with self._numerical_trouble(model), self._option_keys():
+                result: EstimationResult = self.estimator.run_function(
+                    model, signals, self.options, **inputs
+                )
+            self._vouch(model, signals, result)
         if self.moves_modes(model):
             result = result.with_modes_of_the_step_from()
             if model.outputs_differ_by_mode:
@@ -606,6 +614,28 @@ class Prepared:
             ) from err
 
     @contextlib.contextmanager
+    def _rules_left_out(self, model: HybridModel) -> Iterator[None]:
+        """A run on a ``[components]`` model's joint modes that fails names the rules it left out.
+
+        ``imm`` applies no rule with ``when`` (:func:`~hybridlog.estimators.cpha.joint.
+        unapplied_rules_note`); a report says so in its notes, but a run that failed wrote
+        none: a commanded valve's closing, which those rules alone allow, ended ``imm`` with
+        "cannot explain the log ... an outlier, a stuck or offset sensor, another plant's
+        log ...?", and the one cause that was the estimator's own went unsaid.
+        """
+        try:
+            yield
+        except ModelError as err:
+            if not (model.has_components and self.estimator.capabilities.enumerates_components):
+                raise
+            from hybridlog.estimators.cpha.joint import unapplied_rules_note
+
+            note = unapplied_rules_note(model, self.estimator.name)
+            if note is None:
+                raise
+            raise suffixed(err, f" ({note})") from err
+
+    @contextlib.contextmanager
     def _option_keys(self) -> Iterator[None]:
         """An error of the run about an option the model file gave names the file's key.
 
@@ -679,7 +709,7 @@ class Prepared:
         if not self.estimator.stream or self.offline or self.moves_modes(model):
             return self._in_chunks(model, signals, self._whole(model, signals, inputs), rows)
         self.check_signals(model, signals)
-        with self._numerical_trouble(model), self._option_keys():
+        with self._rules_left_out(model), self._numerical_trouble(model), self._option_keys():
             chunks = self.estimator.stream_function(
                 model, signals, self.options, rows=rows, **inputs
             )
@@ -691,11 +721,12 @@ class Prepared:
         """The estimator's own chunks, each checked (:meth:`_vouch`) before it is given."""
         first, before = 0, None
         while True:
-            with self._numerical_trouble(model), self._option_keys():
-                chunk = next(chunks, None)
-            if chunk is None:
-                return
-            self._vouch(model, signals, chunk, first=first, before=before)
+            with self._rules_left_out(model):
+                with self._numerical_trouble(model), self._option_keys():
+                    chunk = next(chunks, None)
+                if chunk is None:
+                    return
+                self._vouch(model, signals, chunk, first=first, before=before)
             if chunk.n_samples:
                 first, before = first + chunk.n_samples, chunk.state_means[-1].copy()
             yield self._with_component_modes(model, chunk)

@@ -249,10 +249,16 @@ def _refuse_options_unread(
                 f"--schedule: {name} is a components model; its components' modes are "
                 "scheduled in simulation.modes"
             )
-        if disturbance or not noise:
+        if disturbance:
             raise OptionError(
-                f"{'--disturbance' if disturbance else '--no-noise'}: {name} is a components "
-                "model; its noise and unmodelled behaviours are set in its [simulation] table"
+                f"--disturbance: {name} is a components model; what its modes do not describe "
+                "is set in its [[simulation.unmodelled]] behaviours"
+            )
+        if not noise:
+            raise OptionError(
+                f"--no-noise: {name} is a components model, simulated with the noise of its "
+                "modes ([noise], or a mode's process_noise and measurement_noise); for a run "
+                "without noise set those variances to 0 in a copy of the file"
             )
     elif values:
         given = next(iter(values))

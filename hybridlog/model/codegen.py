@@ -231,6 +231,26 @@ def _printer() -> PythonCodePrinter:
     return _ModelPrinter({"fully_qualified_modules": True, "standard": "python3"})
 
 
+def unevaluated_functions(expression: sympy.Basic) -> list[str]:
+    """The functions of ``expression`` the generated code cannot evaluate, sorted by name.
+
+    A model's own expressions call only the grammar's functions, but sympy's solution of an
+    equation may call others: ``w + exp(w) = x1`` solves to ``x1 - LambertW(exp(x1))``,
+    which no printer here writes ("unexpected PrintMethodNotImplementedError" in
+    ``simulate`` and ``imm``, "NameError: name 'LambertW' is not defined" in
+    ``unknown-mode``), and a polynomial's root may be a ``CRootOf``, which prints as a name
+    that the generated code does not define.  Those sympy's ``math`` printer knows
+    (``asin``, ``asinh``, ...) are evaluated, as are the grammar's own.
+    """
+    printable = {*_printer().known_functions, "sign", "Piecewise"}
+    called = {
+        type(part).__name__
+        for part in sympy.preorder_traversal(expression)
+        if isinstance(part, sympy.Function | sympy.RootOf)
+    }
+    return sorted(called - printable)
+
+
 def _hoisted(
     expression: sympy.Basic,
     temporaries: Iterator[sympy.Symbol],

@@ -400,8 +400,9 @@ def _initial(value: Any, key: str, mode_ids: tuple[str, ...]) -> dict[str, float
         if mode not in allowed:
             raise ModelError(f"{key_path(key, mode)}: unknown mode (modes: {', '.join(allowed)})")
         probabilities[mode] = as_probability(p, key_path(key, mode))
-    if abs(sum(probabilities.values()) - 1.0) > _PROBABILITY_TOLERANCE:
-        raise ModelError(f"{key}: probabilities must sum to 1")
+    total = sum(probabilities.values())
+    if abs(total - 1.0) > _PROBABILITY_TOLERANCE:
+        raise ModelError(f"{key}: probabilities must sum to 1; they sum to {total:.10g}")
     return probabilities
 
 

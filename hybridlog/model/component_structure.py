@@ -429,7 +429,31 @@ def solve_explicitly(
         )
     if len(solutions) > 1:
         raise ModelError(_several_solutions(algebraic, targets, unknowns, solutions, label))
+    for name, unknown in zip(targets, unknowns, strict=True):
+        _refuse_unevaluated(algebraic, name, unknown, solutions[0][unknown], label)
     return dict(solutions[0])
+
+
+def _refuse_unevaluated(
+    algebraic: Sequence[Equation], name: str, unknown: sympy.Symbol, value: sympy.Expr, label: str
+) -> None:
+    """Refuse a solution that calls a function the generated code cannot evaluate.
+
+    ``w + exp(w) = u1 + x1`` solves to ``w = u1 + x1 - LambertW(exp(u1 + x1))``, which
+    ended ``simulate``, ``imm`` and ``unknown-mode`` with "unexpected ..." errors.  Named by
+    the first equation that uses the variable.
+    """
+    from hybridlog.model.codegen import unevaluated_functions
+
+    missing = unevaluated_functions(value)
+    if not missing:
+        return
+    first = next((e for e in algebraic if unknown in e.residual.free_symbols), algebraic[0])
+    raise ModelError(
+        f"{first.key}: solved for {name} at the mode assignment {label} only as {name} = "
+        f"{value}, which calls {', '.join(missing)}, a function hybridlog cannot evaluate; "
+        f"write the equation solved for {name} ({name} = ...) with the model's functions"
+    )
 
 
 def _several_solutions(

@@ -113,3 +113,22 @@ def test_a_rule_leaving_unknown_under_a_command_the_log_never_gives_is_named():
     assert "components.plant.transitions[0]" in note and "no step of this log had" in note
     given = run_unknown_mode(model, signals(model, 40, command=1.0), UnknownModeOptions())
     assert not absorbing_notes(given)
+
+
+def sticky_notes(result):
+    return [note for note in result.notes if "stays there with probability" in note]
+
+
+def test_an_unknown_left_too_rarely_the_estimate_sits_in_is_a_warning_naming_the_threshold():
+    """Leaving ``unknown`` with probability 0.2 (staying 0.8, above e^(-1/2) for the one
+    output its filter checks) kept a well-fitting component unknown on most of the log, with
+    no word: only a rule that never leaves was named.  Leaving with 0.5 is enough here."""
+    sticky = parse_model(MODEL + LEAVING.replace("0.5", "0.2"), origin="sticky.toml")
+    result = run_unknown_mode(sticky, signals(sticky, 200), UnknownModeOptions())
+    assert np.mean(result.modes == result.mode_ids.index("unknown")) > 0.25
+    [note] = sticky_notes(result)
+    assert note.startswith("WARNING: component plant is reported in its unknown mode on ")
+    assert "stays there with probability 0.8 a step, above e^(-n/2) = 0.61 for the n = 1 " in note
+    assert "0.39 for one, 0.63 for two" in note and "\n" not in note
+    leaving = parse_model(MODEL + LEAVING, origin="leaving.toml")
+    assert not sticky_notes(run_unknown_mode(leaving, signals(leaving, 200), UnknownModeOptions()))

@@ -206,3 +206,31 @@ def test_simulate_names_a_joint_mode_with_an_unmodelled_behaviour_as_the_estimat
         _describe({"A1": "m11", "A2": "~0:m21"}, scenario)  # type: ignore[arg-type]
         == "m11|unknown (simulation.unmodelled[0])"
     )
+
+
+def test_a_solution_through_a_function_no_generated_code_evaluates_is_refused(tmp_path):
+    """``w1 + exp(w1) = x1`` solves to ``x1 - LambertW(exp(x1))``: ``simulate`` and ``imm``
+    ended in "unexpected PrintMethodNotImplementedError", ``unknown-mode`` in "NameError:
+    name 'LambertW' is not defined"; each names the equation and the function now."""
+    from hybridlog.estimators.cpha.joint import joint_mode_model
+    from hybridlog.jobs.simulate import simulate_log
+
+    text = model_text(
+        "x1[k] = 0.8*x1[k-1] + u1[k-1]", "w1 + exp(w1) = x1", "y1 = w1", variables=("w1",)
+    )
+    (tmp_path / "m.toml").write_text(text + SIMULATION, encoding="utf-8")
+    refusals = []
+    for run in (
+        lambda: decomposition(text),
+        lambda: joint_mode_model(parse_model(text)),
+        lambda: simulate_log(tmp_path / "m.toml", tmp_path / "m.csv"),
+    ):
+        with pytest.raises(ModelError) as caught:
+            run()
+        refusals.append(str(caught.value))
+    for message in refusals:
+        assert "components.plant.modes.a.equations[1]: solved for w1 at the mode assignment a" in (
+            message
+        )
+        assert "which calls LambertW, a function hybridlog cannot evaluate" in message
+    assert not (tmp_path / "m.csv").exists()

@@ -197,6 +197,17 @@ def test_steps_that_end_a_scenario_before_its_events_say_so(
     assert code == 0 and "light_fault" not in output and "drift_start = 700" in output
     code, output = _run([*args[:5], "1000", "--force"], capsys)
     assert code == 0 and "note" not in output
+    # the scenario's own steps end the run too: a fault moved past them was a run without it
+    moved = ["--set", "light_fault=1600", "--set", "light_repair=1700"]
+    code, output = _run([*args[:4], "--force", *moved], capsys)
+    assert (
+        code == 0
+        and (
+            "note: simulation.steps = 1,500 ends the run before these events of bioplex_pgc's "
+            "scenario, which never run: simulation.modes.ls: one_bank_out at light_fault = 1600\n"
+        )
+        in output
+    )
 
 
 def test_a_controller_overflow_is_said_in_words_not_as_an_errno_tuple() -> None:
@@ -243,8 +254,12 @@ def test_what_the_simulation_reads_is_checked_before_its_output(
     ("options", "said"),
     [
         ({"schedule": "1:10"}, "--schedule: bioplex_pgc is a components model; its components'"),
-        ({"disturbance": "1,2"}, "--disturbance: bioplex_pgc is a components model; its noise"),
-        ({"noise": False}, "--no-noise: bioplex_pgc is a components model; its noise"),
+        (
+            {"disturbance": "1,2"},
+            "--disturbance: bioplex_pgc is a components model; what its modes do not describe",
+        ),
+        # "its noise ... set in its [simulation] table": no key there sets noise
+        ({"noise": False}, "--no-noise: bioplex_pgc is a components model, simulated with the "),
     ],
 )
 def test_options_a_components_model_does_not_read_are_refused_before_its_output(

@@ -573,7 +573,7 @@ _COMPONENT_ERRORS = [
     (
         "initial = {m21 = 0.9, unknown = 0.1}",
         "initial = {m21 = 0.9}",
-        r"components\.A2\.initial: probabilities must sum to 1",
+        r"components\.A2\.initial: probabilities must sum to 1; they sum to 0\.9$",
     ),
     (
         "[components.A3]",

@@ -67,3 +67,60 @@ def test_a_component_without_a_schedule_needs_one_most_likely_mode(
     assert message.startswith(f"{path}: simulation.modes.ls: no mode to simulate component 'ls'")
     assert f"(components.ls.initial: {shown}" in message
     assert 'write ls = "MODE"' in message and "\n" not in message
+
+
+SAME_STEP = """
+dt = 1.0
+states = ["x1"]
+inputs = ["u1"]
+outputs = ["y1"]
+
+[noise]
+process = [1e-4]
+measurement = [1e-2]
+
+[initial]
+state = [0.0]
+
+[components.c]
+unknown = 0.001
+initial = "see"
+
+[components.c.modes.see]
+equations = ["x1[k] = 0.9*x1[k-1] + u1[k-1]", "y1 = x1"]
+
+[components.c.modes.blind]
+equations = ["x1[k] = 0.9*x1[k-1] + u1[k-1]", "y1 = u1"]
+
+[simulation]
+steps = 20
+
+[simulation.modes]
+c = "see, blind@5"
+
+[simulation.controller]
+inputs = {{u1 = "{control}"}}
+"""
+
+
+@pytest.mark.parametrize(
+    ("control", "said"),
+    [
+        ("1 - 0.5*y1", ", from them (an algebraic loop)"),
+        # a constant input was "an algebraic loop through the controller" too
+        ("0.1", "; the controller reads no output: give u1 under [simulation.inputs]"),
+    ],
+)
+def test_an_output_of_a_controlled_input_of_its_own_step_is_refused_for_its_cause(
+    control: str, said: str, tmp_path: Path
+) -> None:
+    path = tmp_path / "same_step.toml"
+    path.write_text(SAME_STEP.format(control=control), encoding="utf-8")
+    with pytest.raises(ModelError) as caught:
+        simulate_components(load_model(path))
+    message = str(caught.value)
+    assert message.startswith(
+        f"{path}: simulation.controller.inputs.u1: in the joint mode blind the output 'y1' "
+        "depends on u1 at the same step, which the controller computes after the outputs"
+    )
+    assert said in message

@@ -25,10 +25,23 @@ from hybridlog.model.components import UNKNOWN, Component
 from hybridlog.signals import FloatArray
 from hybridlog.times import format_time
 
-__all__ = ["ABSORBING_SHARE", "absorbing_components", "absorbing_notes"]
+__all__ = [
+    "ABSORBING_SHARE",
+    "LEAVING_ADVICE",
+    "absorbing_components",
+    "absorbing_notes",
+    "unknown_stays",
+]
 
 ABSORBING_SHARE = 0.25
 """Share of the samples in an absorbing ``unknown`` past which the note is a ``WARNING``."""
+
+LEAVING_ADVICE = (
+    "leaving with probability above 1 - e^(-n/2) for the n outputs its unknown mode leaves "
+    "unchecked: 0.39 for one, 0.63 for two, 0.78 for three"
+)
+"""How readily a rule ``from = "unknown"`` must leave: a well-fitting mode pays about 1/2 a
+step per output it checks (``E[rᵀS⁻¹r]/2``), staying ``unknown`` ``-ln P(stay)``."""
 
 
 def _enterable(component: Component) -> bool:
@@ -38,6 +51,35 @@ def _enterable(component: Component) -> bool:
         or component.initial_mode_probabilities.get(UNKNOWN, 0.0) > 0.0
         or any(rule.targets.get(UNKNOWN, 0.0) > 0.0 for rule in component.rules)
     )
+
+
+def _command_rows(
+    command_names: Sequence[str], commands: FloatArray | None
+) -> list[dict[str, float]]:
+    """The distinct commands of the steps that select a transition (rows 0 … N−2)."""
+    if commands is None or len(commands) <= 1:
+        return [{}]
+    distinct = np.unique(commands[:-1], axis=0)
+    return [dict(zip(command_names, row.tolist(), strict=True)) for row in distinct]
+
+
+def unknown_stays(
+    components: Sequence[Component],
+    command_names: Sequence[str],
+    commands: FloatArray | None,
+) -> dict[str, float]:
+    """Per component the run can put in ``unknown``: the most likely stay there in one step.
+
+    The largest ``P(unknown → unknown)`` over the commands of this log's steps.
+    """
+    rows = _command_rows(command_names, commands)
+    return {
+        component.name: max(
+            component.transition_probabilities(UNKNOWN, given).get(UNKNOWN, 0.0) for given in rows
+        )
+        for component in components
+        if _enterable(component)
+    }
 
 
 def absorbing_components(
@@ -51,10 +93,7 @@ def absorbing_components(
     transitions, eq. (4)), ``None`` when no rule names one.  A component with ``from =
     "unknown"`` rules whose ``when`` held on no step cannot leave on this log either.
     """
-    rows: list[dict[str, float]] = [{}]
-    if commands is not None and len(commands) > 1:
-        distinct = np.unique(commands[:-1], axis=0)
-        rows = [dict(zip(command_names, row.tolist(), strict=True)) for row in distinct]
+    rows = _command_rows(command_names, commands)
     found: dict[str, str] = {}
     for component in components:
         if not _enterable(component):
@@ -101,8 +140,7 @@ def absorbing_notes(
             f"a trajectory that enters it stays, and as its dropped filters score the upper "
             f"bound P_O = 1 (paper 002 §3) it outscores even a well-fitting mode after a few "
             f"dozen samples; add a [[components.{name}.transitions]] rule with from = "
-            f'"unknown" (leaving with probability above about 0.4 per output its filters '
-            f"check) so that it can leave"
+            f'"unknown" ({LEAVING_ADVICE}) so that it can leave'
         )
         if n and len(where) >= ABSORBING_SHARE * n:
             notes.append(

@@ -61,7 +61,9 @@ cluster (an unknown neighbour left its equations undetermined), a warning per co
 how many samples no output checked it; the rules whose ``when`` never held on the log, with
 the command values it held that no rule names (:func:`command_notes`); and, with the unknown
 mode, each component whose ``unknown`` no rule leaves (absorbing, a ``WARNING`` where the
-estimate sits there on a quarter of the samples or more: :mod:`~.absorbing`).
+estimate sits there on a quarter of the samples or more: :mod:`~.absorbing`), and a
+``WARNING`` for one the rules leave too rarely to lose against a fitting mode
+(:func:`_sticky_notes`) that the estimate sits in as long.
 
 Modelling the unknown mode
 --------------------------
@@ -76,6 +78,7 @@ output — the unknown mode wins by default after a few dozen steps.  Entering i
 
 from __future__ import annotations
 
+import math
 import time
 from array import array
 from dataclasses import replace
@@ -85,7 +88,13 @@ import numpy as np
 from hybridlog.cluster.progress import TimedWork, duration_text
 from hybridlog.errors import LogError, ModelError
 from hybridlog.estimators.capabilities import missing_command
-from hybridlog.estimators.cpha.absorbing import absorbing_components, absorbing_notes
+from hybridlog.estimators.cpha.absorbing import (
+    ABSORBING_SHARE,
+    LEAVING_ADVICE,
+    absorbing_components,
+    absorbing_notes,
+    unknown_stays,
+)
 from hybridlog.estimators.cpha.cluster_filter import FilterCache
 from hybridlog.estimators.cpha.hypotheses import (
     ClusterStepError,
@@ -438,9 +447,15 @@ def _run(
         if options.unknown_mode
         else {}
     )
+    stays = (
+        unknown_stays(components, tracker.transitions.commands, tracker.commands)
+        if options.unknown_mode
+        else {}
+    )
     filtered_notes = (
         notes
         + absorbing_notes(components, absorbing, best_assignments, signals.time)
+        + _sticky_notes(model, structure, best_assignments, signals.time, stays)
         + _unchecked_notes(model, structure, best_assignments, signals.time)
         + _held_notes(model, structure, best_assignments, signals.time)
         + _undetermined_notes(model, undetermined, signals.time)
@@ -479,6 +494,7 @@ def _run(
         notes=(
             notes
             + absorbing_notes(components, absorbing, assignments, signals.time)
+            + _sticky_notes(model, structure, assignments, signals.time, stays)
             + _unchecked_notes(model, structure, assignments, signals.time)
             + _held_notes(model, structure, assignments, signals.time)
             + _undetermined_notes(model, path_undetermined, signals.time)
@@ -605,6 +621,59 @@ def _component_columns(model: HybridModel, assignments: list[Assignment]) -> lis
         values = np.array([mode_labels.index(a[c]) for a in assignments], dtype=np.int64)
         columns.append(TimelineColumn(f"mode.{component.name}", values, mode_labels))
     return columns
+
+
+def _sticky_notes(
+    model: HybridModel,
+    structure: StructureCache,
+    assignments: list[Assignment],
+    times: FloatArray,
+    stays: dict[str, float],
+) -> tuple[str, ...]:
+    """A warning per component reported ``unknown`` on many samples whose rules keep it there.
+
+    Staying in ``unknown`` costs ``-ln P(stay)`` a step against about 1/2 per output a
+    well-fitting known mode checks (the outputs its unknown mode leaves unchecked: a tank
+    whose level feeds a valve's flow unchecks the other tank's output too).  Where
+    ``P(stay) > e^(-n/2)`` the unknown mode outscores a mode that fits: two tanks and a valve,
+    each leaving ``unknown`` with probability 0.5 or 0.6, were reported ``unknown`` on most of
+    a fault-free log without a word on why (:mod:`~.absorbing` names those no rule leaves).
+    """
+    n = len(assignments)
+    notes = []
+    for c, component in enumerate(model.components):
+        stay = stays.get(component.name, 0.0)
+        where = [a for a in assignments if a[c] == UNKNOWN]
+        if not 0.0 < stay < 1.0 or not n or len(where) < ABSORBING_SHARE * n:
+            continue
+        typical = max(set(where), key=where.count)
+        unchecked = max(
+            len(_checked_outputs(structure, (*typical[:c], mode, *typical[c + 1 :])))
+            - len(_checked_outputs(structure, typical))
+            for mode in component.mode_ids
+        )
+        threshold = math.exp(-unchecked / 2)
+        if unchecked == 0 or stay <= threshold:
+            continue
+        first = next(k for k, a in enumerate(assignments) if a[c] == UNKNOWN)
+        notes.append(
+            f"WARNING: component {component.name} is reported in its unknown mode on "
+            f"{len(where):,} of {n:,} samples (first at t = {format_time(times[first])} s), "
+            f"and stays there with probability {stay:.3g} a step, above e^(-n/2) = "
+            f"{threshold:.2f} for the n = {unchecked} outputs its unknown mode leaves "
+            f"unchecked: staying costs {-math.log(stay):.2f} a step, a mode that fits about "
+            f"{unchecked / 2:g} (1/2 per output it checks), so the unknown mode, whose dropped "
+            "filters score the upper bound P_O = 1 (paper 002 §3), outscores even a "
+            "well-fitting mode; unless the component truly behaved as no mode describes there, "
+            f'let its [[components.{component.name}.transitions]] rule from = "unknown" leave '
+            f"more readily ({LEAVING_ADVICE})"
+        )
+    return tuple(notes)
+
+
+def _checked_outputs(structure: StructureCache, assignment: Assignment) -> frozenset[str]:
+    """The outputs the kept filter clusters of ``assignment`` check."""
+    return frozenset(o for cluster in structure.get(assignment).clusters for o in cluster.outputs)
 
 
 def _unchecked_notes(
