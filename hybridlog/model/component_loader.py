@@ -244,9 +244,7 @@ def _component(
         )
     check_distinct_labels(((m.id, key_path(f"{key}.modes", m.id)) for m in modes), "mode id")
     mode_ids = tuple(m.id for m in modes)
-    unknown = as_probability(required(spec, "unknown", key), f"{key}.unknown")
-    if unknown >= 1.0:
-        raise ModelError(f"{key}.unknown: must be below 1, got {unknown!r}")
+    unknown = as_probability(required(spec, "unknown", key), f"{key}.unknown", below_one=True)
     return Component(
         name=name,
         modes=tuple(modes),

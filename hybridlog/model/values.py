@@ -99,11 +99,12 @@ def as_positive(value: Any, key: str) -> float:
     return number
 
 
-def as_probability(value: Any, key: str) -> float:
-    """A number in [0, 1]."""
+def as_probability(value: Any, key: str, *, below_one: bool = False) -> float:
+    """A number in [0, 1], or in [0, 1) where ``below_one`` (the range the refusal names)."""
     number = as_number(value, key)
-    if not 0.0 <= number <= 1.0:
-        raise ModelError(f"{key}: must be a probability in [0, 1], got {number!r}")
+    if not 0.0 <= number <= 1.0 or (below_one and number == 1.0):
+        interval = "[0, 1)" if below_one else "[0, 1]"
+        raise ModelError(f"{key}: must be a probability in {interval}, got {number!r}")
     return number
 
 

@@ -509,7 +509,16 @@ _COMPONENT_ERRORS = [
         r"components\.A1\.modes\.unknown: 'unknown' is every component's implicit",
     ),
     ("unknown = 0.0\n", "", r"components\.A3\.unknown: required key is missing"),
-    ("unknown = 0.0\n", "unknown = 1.0\n", r"components\.A3\.unknown: must be below 1"),
+    (
+        "unknown = 0.0\n",
+        "unknown = 1.0\n",
+        r"components\.A3\.unknown: must be a probability in \[0, 1\), got 1\.0$",
+    ),
+    (
+        "unknown = 0.0\n",
+        "unknown = 1.5\n",
+        r"components\.A3\.unknown: must be a probability in \[0, 1\), got 1\.5$",
+    ),
     ("unknown = 0.0\n", "unknown = -0.5\n", r"components\.A3\.unknown: must be a probability"),
     ("unknown = 0.0\n", "unknown = 0.0\ncolour = 1\n", r"components\.A3\.colour: unknown key"),
     (
