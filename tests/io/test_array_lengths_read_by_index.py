@@ -135,3 +135,21 @@ def test_inspect_names_the_arrays_an_index_cannot_read(tmp_path: Path) -> None:
     ]
     with pytest.raises(LogError, match=r"\.transforms holds 1 element in the message logged"):
         read(tmp_path / "tf.mcap", "/tf.transforms[0].transform.translation.x")
+
+
+def test_an_index_out_of_range_names_the_symbol_and_its_map(tmp_path: Path) -> None:
+    """An index past a topic's arrays read ``'/joint_states.position[3]': .position[3]: ...``,
+    without the ``output 'y' (field ..., from --map ...)`` a field the schema lacks is named
+    by: found only in the messages' values, it is named by the same words now."""
+    from hybridlog.io.load import SignalSpec, load_signals
+
+    log = joint_states(tmp_path / "arm.mcap", gripper_every=10**6)
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=(), dt=0.01)
+    maps = ("u=/joint_states.position[0]", "y=/joint_states.position[3]")
+    with pytest.raises(LogError) as err:
+        load_signals(log, spec, ReadOptions(maps=maps))
+    assert str(err.value) == (
+        f"{log}: output 'y' (field '/joint_states.position[3]', from --map "
+        "y=/joint_states.position[3]): .position[3]: index out of range (the array has 3 "
+        "elements) in the message logged at t=1 s"
+    )
