@@ -354,7 +354,7 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
 def _field_line(field: str, arrays: dict[str, dict[str, Any]]) -> tuple[str, str]:
     """A field of ``fields`` as shown, and what ``arrays`` says of the array it is or is in.
 
-    ``3 elements: "j1", "j2", "j3" (the first message's)`` of ``/joint_states.name[]``;
+    ``3 elements: 'j1', 'j2', 'j3' (the first message's)`` of ``/joint_states.name[]``;
     ``transforms[]: 2 elements`` of a field of an array of messages' elements.
     """
     entry = arrays.get(field)
