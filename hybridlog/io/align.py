@@ -100,6 +100,7 @@ import numpy.typing as npt
 from hybridlog.errors import LogError
 from hybridlog.io.alignment_notes import (
     faster_than_the_grid,
+    held_sampling,
     longest_hold,
     record_span_bounds,
     sampled_every,
@@ -252,8 +253,10 @@ def align_signals(
         (``truth_bridged``), per input and output sampled faster than the grid its
         samples on the grid's span and the grid's points (``faster``: ``{symbol: {kind,
         samples, points}}``), per input its longest hold over ``max_gap`` (``held``:
-        ``{symbol: {start, end, seconds}}``), and the same for the true mode and each
-        component's (``truth_held``: ``{"mode" | "mode.<component>": {start, end, seconds}}``),
+        ``{symbol: {start, end, seconds, holds, every, steps, regular}}``, the last three of
+        :func:`~hybridlog.io.alignment_notes.held_sampling`), and the same for the true mode
+        and each component's (``truth_held``: ``{"mode" | "mode.<component>": {start, end,
+        seconds}}``),
         and for a true mode that starts more than half a step after the first sample time
         where it starts and how many samples it covers (``truth_starts``: ``{"mode" |
         "mode.<component>": {at, samples, of}}``).  ``truth_held`` is of a true mode recorded
@@ -473,7 +476,8 @@ def _held_onto(
             if skipped is not None:
                 notes.setdefault("skipped", {})[symbol] = {**skipped, "points": n}
         hold = longest_hold(series.time_ns, grid, dt_ns, max_gap_ns)
-        if hold is not None:
+        if hold is not None:  # with how often it was sampled: regularly, or when it changed
+            hold |= held_sampling(series.time_ns, grid, dt_ns)
             notes.setdefault("held", {})[symbol] = (
                 hold if kind == "input" else {**hold, "kind": kind}
             )

@@ -1,6 +1,7 @@
 """What the alignment records of each signal for the report, beside its aligned values.
 
-How often a bridged output was sampled (:func:`sampled_every`), the samples of a series
+How often a bridged output was sampled (:func:`sampled_every`) and a held input, and
+whether regularly (:func:`held_sampling`), the samples of a series
 faster than the grid (:func:`faster_than_the_grid`) or that the hold never takes
 (:func:`skipped_by_the_hold`), an input's longest hold over ``max_gap``
 (:func:`longest_hold`), and the signal that starts the grid late or ends it early
@@ -33,13 +34,49 @@ def sampled_every(time_ns: IntArray, grid_ns: IntArray, dt_ns: int) -> dict[str,
     report says which (:func:`~hybridlog.report.reading_notes.bridged_cause`), where it asked of
     both whether the model's dt is the log's.
     """
-    lo = int(np.searchsorted(time_ns, grid_ns[0], side="left"))
-    hi = int(np.searchsorted(time_ns, grid_ns[-1], side="right"))
-    inside = time_ns[lo:hi] if hi - lo >= 2 else time_ns
-    step_ns = float(np.median(np.diff(inside)))
+    step_ns = float(np.median(_steps_over(time_ns, grid_ns)))
     ends = (float(grid_ns[0]) / NS_PER_S, float(grid_ns[-1]) / NS_PER_S)
     every = round_duration(step_ns / NS_PER_S, *ends)
     return {"every": every, "steps": round(step_ns / dt_ns, 2)}
+
+
+REGULAR_TOLERANCE = 0.25
+"""A step between two samples within this fraction of the median step is a regular one."""
+REGULAR_SHARE = 0.9
+"""A series is sampled regularly when at least this share of its steps are regular ..."""
+REGULAR_STEPS = 10
+"""... and it has at least this many steps: of fewer, a command published when it changes can
+have steps alike by chance."""
+
+
+def held_sampling(time_ns: IntArray, grid_ns: IntArray, dt_ns: int) -> dict[str, Any]:
+    """How often a held signal (an input, a command) was sampled, and whether regularly.
+
+    :func:`sampled_every`'s ``every`` and ``steps``, and ``regular``: whether at least
+    :data:`REGULAR_SHARE` of its :data:`REGULAR_STEPS` or more steps (over the grid's span, as
+    ``every``) lie within :data:`REGULAR_TOLERANCE` of their median, a robust test a few
+    dropouts or a jittering clock do not fail and a command published when it changes, at
+    irregular times, does.  An input published at 10 Hz to a model of ``dt = 0.01`` read "no
+    sample in 100 stretches longer than max_gap ... as an input published only when it changes
+    is": the report now says it is sampled every 0.1 s, 10 steps of dt
+    (:func:`~hybridlog.report.reading_notes.log_reading_notes`), as it says of an output.
+    """
+    steps = _steps_over(time_ns, grid_ns)
+    median = float(np.median(steps)) if steps.size else 0.0
+    close = np.abs(steps - median) <= REGULAR_TOLERANCE * median
+    regular = steps.size >= REGULAR_STEPS and median > 0 and close.mean() >= REGULAR_SHARE
+    return {**sampled_every(time_ns, grid_ns, dt_ns), "regular": bool(regular)}
+
+
+def _steps_over(time_ns: IntArray, grid_ns: IntArray) -> IntArray:
+    """The steps between a series' samples from the grid's first point to its last.
+
+    Those of the whole series when fewer than two samples lie there.
+    """
+    lo = int(np.searchsorted(time_ns, grid_ns[0], side="left"))
+    hi = int(np.searchsorted(time_ns, grid_ns[-1], side="right"))
+    inside = time_ns[lo:hi] if hi - lo >= 2 else time_ns
+    return np.diff(inside)
 
 
 def faster_than_the_grid(

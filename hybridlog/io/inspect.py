@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 import unicodedata
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -257,9 +257,13 @@ def _format_messages(info: dict[str, Any]) -> str:
     fields = [f for t in topics for f in t["fields"]]
     if fields:
         lines.append("")
-        lines.append("fields (message paths for --map; [] takes an index, [-1] the last):")
+        lines.append(
+            "fields (message paths for --map; [] takes an index, 0 to n-1 of n elements, [-1] "
+            "the last):"
+        )
         shown = fields[:40]
-        lines.extend(f"  {_shown(f)}" for f in shown)
+        arrays = {a["name"]: a for t in topics for a in t.get("arrays") or []}
+        lines.extend(_aligned_words(_field_line(f, arrays) for f in shown))
         if len(fields) > len(shown):
             lines.append(f"  ... {len(fields) - len(shown)} more (see --json)")
     reading = info.get("reading") or {}
@@ -345,6 +349,38 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
         cells = (cell + " " * (w - _width(cell)) for cell, w in zip(row, widths, strict=True))
         lines.append("  ".join(cells).rstrip())
     return lines
+
+
+def _field_line(field: str, arrays: dict[str, dict[str, Any]]) -> tuple[str, str]:
+    """A field of ``fields`` as shown, and what ``arrays`` says of the array it is or is in.
+
+    ``3 elements: 'j1', 'j2', 'j3' (the first message's)`` of ``/joint_states.name[]``;
+    ``transforms[]: 2 elements`` of a field of an array of messages' elements.
+    """
+    entry = arrays.get(field)
+    within = [a for a in arrays if field.startswith(a) and a != field]
+    if entry is None and within:
+        entry = arrays[max(within, key=len)]
+    if entry is None:
+        return _shown(field), ""
+    count = entry["elements"]
+    said = f"{count} element{'' if count == 1 else 's'}"
+    if "first" in entry:
+        said += ": " + ", ".join(_shown(v, quoted=True) for v in entry["first"])
+        said += " (the first message's)"
+    if entry["name"] != field:
+        said = f"{_shown(entry['name'].rsplit('.', 1)[-1])}: {said}"
+    return _shown(field), said
+
+
+def _aligned_words(rows: Iterable[tuple[str, str]]) -> list[str]:
+    """``  name  words`` lines, the words of each in one column where any has words."""
+    rows = list(rows)
+    width = max(_width(name) for name, _ in rows)
+    return [
+        f"  {name}{' ' * (width - _width(name))}  {words}".rstrip() if words else f"  {name}"
+        for name, words in rows
+    ]
 
 
 def _width(text: str) -> int:

@@ -32,7 +32,7 @@ from hybridlog.io.mapping import (
     resolve_signal_map,
 )
 from hybridlog.io.options import ReadOptions
-from hybridlog.io.source import NS_PER_S, FieldKey, LabelSeries, Series, format_ns
+from hybridlog.io.source import NS_PER_S, FieldError, FieldKey, LabelSeries, Series, format_ns
 from hybridlog.io.time_grid import SignalsApartError, clock_tolerance_ns
 from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals, IntArray
 
@@ -244,7 +244,13 @@ def load_signals(
                 ]
             )
         )
-        reading = source.read(numeric, labels)
+        try:
+            reading = source.read(numeric, labels)
+        except FieldError as err:  # named as a field that does not fit the log is
+            place = mapping.place(err.name, info.field_word)
+            if place is None:
+                raise
+            raise LogError(f"{err.file}: {place}: {err.reason}") from None
         numeric_series = dict(reading.numeric)
         dropped: dict[str, int] = {}
         out_of_range: dict[str, int] = {}

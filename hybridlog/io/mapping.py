@@ -138,6 +138,22 @@ class SignalMap:
             for symbol, name in chosen.items()
         }
 
+    def place(self, name: str, field_word: str) -> str | None:
+        """The first symbol reading field ``name``, as a place an error names, or ``None``.
+
+        ``output 'y' (field '/p.position[3]', from --map y=/p.position[3])``: the words
+        :func:`resolve_signal_map` puts before why a field cannot be used, for an error found
+        only in the field's values (:class:`~hybridlog.io.source.FieldError`).
+        """
+        for symbol, read in self.fields_read().items():
+            if read["field"] == name:
+                origin = read["from"]
+                where = {"--map": f"from --map {symbol}={name}", "default": "the default"}
+                said = where.get(origin, f"from the model's {origin}")
+                described = _describe(symbol, tuple(self.inputs), tuple(self.commands))
+                return f"{described} ({field_word} {name!r}, {said})"
+        return None
+
 
 ROS_TOPIC = re.compile(r"(?:/[A-Za-z_][A-Za-z0-9_]*)+", re.ASCII)
 """A fully qualified ROS topic name, as rmw's ``rmw_validate_full_topic_name`` (ROS 2) and ROS 1

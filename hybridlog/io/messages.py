@@ -432,7 +432,9 @@ class MessageSource(abc.ABC):
             whose fields, values and stamps these are; else ``None``), ``header_stamp``
             (what ``--time header`` reads: ``start, end, offset, count``,
             :meth:`~hybridlog.io.header_stamps.HeaderStamps.describe`; ``None`` for a topic
-            without ``header.stamp``) and ``fields``), ``time`` (``start, end, duration``
+            without ``header.stamp``), ``fields`` and ``arrays`` (per array of one length in
+            every message, ``name``, ``elements`` and, of a few short texts, ``first``, the
+            first message's, :meth:`ValueCounter.lengths`)), ``time`` (``start, end, duration``
             over all messages, or ``None``), ``problems`` and ``reading`` (what reading did,
             e.g. recovery).  Times are seconds as floats.  ``nonfinite`` and ``values`` are
             ``None`` for a topic whose messages cannot be decoded.
@@ -514,6 +516,7 @@ class MessageSource(abc.ABC):
                     "undecodable": skipped,
                     "header_stamp": header_stamp,
                     "fields": fields,
+                    "arrays": [],
                 }
             )
         shared = shared_paths({t["name"]: t["fields"] for t in topics})
@@ -524,6 +527,10 @@ class MessageSource(abc.ABC):
                 value["name"] = spelt_path(name, value["name"].removeprefix(name), shared)
             counter = counters.get(name)
             if counter is not None and entry["values"] is not None:
+                entry["arrays"] = [
+                    {"name": spelt_path(name, path, shared), **length}
+                    for path, length in counter.lengths().items()
+                ]
                 # what analyze refuses when the field is mapped, said before it is
                 problems.extend(
                     f"{excerpt(spelt_path(name, path, shared))}: {text}"

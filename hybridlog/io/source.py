@@ -20,7 +20,7 @@ from typing import Any, Protocol, Self
 
 import numpy as np
 
-from hybridlog.errors import names_apart
+from hybridlog.errors import LogError, names_apart
 from hybridlog.signals import MAX_MAGNITUDE, BoolArray, FloatArray, IntArray
 
 NS_PER_S = 1_000_000_000
@@ -35,6 +35,22 @@ FieldKey = tuple[str, tuple[str | int, ...]]
 """What a field name names (:meth:`LogSource.field_key`): its column or topic, and the steps
 into it (field names and indices, each index into an array of known length counted from its
 start)."""
+
+
+class FieldError(LogError):
+    """A mapped field's values cannot be read: ``{file}: '{field}': {reason}``.
+
+    With ``file``, ``field`` and ``reason`` apart, so that
+    :func:`~hybridlog.io.load.load_signals` names the symbol the field feeds and where it
+    came from (:meth:`~hybridlog.io.mapping.SignalMap.place`), as the mapping names it for a
+    field that does not fit the log: an index out of range of a topic's array read
+    ``'/p': .position[3]: ...`` where a field the schema lacks read ``output 'y' (field
+    '/p.nope', from --map y=/p.nope): ...``.
+    """
+
+    def __init__(self, file: str, name: str, reason: str) -> None:
+        super().__init__(f"{file}: {name!r}: {reason}")
+        self.file, self.name, self.reason = file, name, reason
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ import numpy as np
 
 from hybridlog.errors import excerpt
 from hybridlog.io.message_paths import PathError, Step, format_steps, spell_field, split_path
-from hybridlog.io.source import closest_names
+from hybridlog.io.source import FieldError, closest_names
 from hybridlog.polars_import import pl
 
 STRUCT, ARRAY, LIST = "struct", "array", "list"
@@ -236,7 +236,9 @@ def leaf_values(frame: pl.DataFrame, path: ColumnPath, where: str, row_label: An
     ------
     PathError
         Naming the file, row and column of a list whose length differs from the other
-        rows', an index beyond the lists' one length, or a null inside a list.
+        rows', or a null inside a list.
+    FieldError
+        For an index beyond the lists' one length (named as the mapping names a field).
     """
     if not path.nested:
         return frame.get_column(path.column).alias(path.text)
@@ -257,9 +259,10 @@ def leaf_values(frame: pl.DataFrame, path: ColumnPath, where: str, row_label: An
                 "signal)"
             )
         if not -first <= index < first:
-            raise PathError(
-                f"{where}, column {excerpt(path.column)}: {excerpt(path.text)}: index out of "
-                f"range (the lists of {excerpt(name)} hold {first} elements)"
+            raise FieldError(
+                where,
+                path.text,
+                f"index out of range (the lists of {excerpt(name)} hold {first} elements)",
             )
     values = frame.select(path.expr().alias(path.text)).to_series()
     if path.in_list:

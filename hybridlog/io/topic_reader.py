@@ -50,7 +50,14 @@ from hybridlog.io.message_paths import (
     spell_field,
 )
 from hybridlog.io.message_topics import Topic
-from hybridlog.io.source import LabelSeries, Series, closest_names, format_ns, last_of_each_time
+from hybridlog.io.source import (
+    FieldError,
+    LabelSeries,
+    Series,
+    closest_names,
+    format_ns,
+    last_of_each_time,
+)
 from hybridlog.signals import BoolArray, FloatArray, IntArray
 
 if TYPE_CHECKING:
@@ -171,9 +178,10 @@ class TopicReader:
                     reason = str(err.error)
                     if not reason.startswith(("the message", ".", "[")):
                         reason = f"the value {reason}"
-                    raise LogError(
-                        f"{self.source.path}: {wanted.text!r}: {reason} in "
-                        f"{self._where(times, first + err.row)}"
+                    raise FieldError(
+                        self.source.path,
+                        wanted.text,
+                        f"{reason} in {self._where(times, first + err.row)}",
                     ) from None
             if stamps is not None:
                 try:

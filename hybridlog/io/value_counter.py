@@ -45,6 +45,12 @@ images of 6 MiB held at once, decoded for their stamps, made ``inspect`` of a 3.
 peak at 6.3 GB (19.5 s, against 84 MB and 4.9 s before stamps were read)."""
 
 
+TEXTS_SHOWN = 8
+"""``inspect`` shows the values of an array of text of at most this many ..."""
+TEXT_SHOWN = 32
+"""... each of at most this many characters (the names of a ``JointState``'s joints)."""
+
+
 class ValueCounter:
     """Counts the values of a topic's fields that can hold NaN or infinities, and those that do.
 
@@ -77,7 +83,11 @@ class ValueCounter:
         Its ``int64``/``uint64`` leaves (ROS messages), whose values are checked, not counted.
     arrays:
         The steps to its arrays outside arrays of messages (ROS messages), whose lengths are
-        held to one in every message where a path reads one by index (:meth:`uneven`).
+        held to one in every message where a path reads one by index (:meth:`uneven`), and
+        listed where they are (:meth:`lengths`).
+    texts:
+        Those of them that are arrays of text (``JointState.name``), whose first message's
+        values :meth:`lengths` lists where they are few and short.
     """
 
     def __init__(
@@ -86,12 +96,15 @@ class ValueCounter:
         float_leaves: list[DeepLeaf] | None,
         wide_leaves: Sequence[DeepLeaf] = (),
         arrays: Sequence[tuple[str, ...]] = (),
+        texts: Sequence[tuple[str, ...]] = (),
     ) -> None:
         self.topic = topic
         self.leaves = float_leaves
         self.wide = wide_leaves
         # field path of an array outside arrays of messages -> its fewest and most elements
         self._lengths: dict[tuple[str, ...], list[int]] = {steps: [] for steps in arrays}
+        # field path of an array of text -> its values in the first message decoded
+        self._first_texts: dict[tuple[str, ...], list[str] | None] = dict.fromkeys(texts)
         self.problem: str | None = None
         self.stamps = HeaderStamps(topic) if may_have_stamps(topic) else None
         # field path after the topic -> the first value beyond 2^53 a float64 does not hold
@@ -137,6 +150,11 @@ class ValueCounter:
                     a for a, f in zip(arrays, found, strict=True) if f.arrays or f.leaf.array
                 )
             ),
+            [
+                f.leaf.steps
+                for f in found
+                if not f.arrays and f.leaf.array and f.leaf.type_name == "string"
+            ],
         )
 
     def add(self, data: bytes, log_time: int) -> None:
@@ -248,12 +266,39 @@ class ValueCounter:
             if fewest != most
         }
 
+    def lengths(self) -> dict[str, dict[str, Any]]:
+        """Per array of one length in every message (``.position[]``), that length.
+
+        ``{"elements": 3}``, and of an array of text of at most :data:`TEXTS_SHOWN` values
+        of at most :data:`TEXT_SHOWN` characters each, the first message's (``"first":
+        ["j1", "j2", "j3"]``): the indexes a path may take, and which joint each one is,
+        which ``inspect`` did not say (``/joint_states.position[]`` alone).
+        """
+        found: dict[str, dict[str, Any]] = {}
+        for steps, seen in self._lengths.items():
+            if not seen or seen[0] != seen[1]:
+                continue
+            entry: dict[str, Any] = {"elements": seen[0]}
+            first = self._first_texts.get(steps)
+            if first and len(first) <= TEXTS_SHOWN and max(map(len, first)) <= TEXT_SHOWN:
+                entry["first"] = first
+            found[format_steps(steps) + "[]"] = entry
+        return found
+
     def _measure(self, messages: list[object]) -> None:
-        """Widen each array's range of lengths by those in ``messages``."""
+        """Widen each array's range of lengths by those in ``messages``.
+
+        An array of text's values in the first message are kept too (:meth:`lengths`).
+        """
         for steps, seen in self._lengths.items():
             get = accessor(steps)
             try:
                 lengths = [len(get(message)) for message in messages]  # type: ignore[arg-type]
+                if messages and steps in self._first_texts and self._first_texts[steps] is None:
+                    first = get(messages[0])
+                    self._first_texts[steps] = (
+                        [str(v) for v in first] if isinstance(first, list) else []
+                    )
             except (AttributeError, IndexError, KeyError, TypeError):
                 continue  # a renamed field (``from_``): no index is checked here
             if lengths:

@@ -10,6 +10,7 @@ or for non-finite values, gaps bridged, holds, rows put in order, clocks that di
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
+from hybridlog.io.alignment_notes import REGULAR_TOLERANCE
 from hybridlog.io.clocks import clocks_disagree
 from hybridlog.report.markdown import (
     plural,
@@ -168,10 +169,46 @@ def bridged_cause(count: Mapping[str, Any]) -> str:
     if not isinstance(steps, int | float):
         return "is the model's dt the log's?"
     if steps >= SLOWER_STEPS:
-        return f"it is sampled every {count['every']:g} s (median), {steps:g} steps of dt"
+        return f"it is {_sampled_every(count)}"
     if steps > FASTER_STEPS:
         return "it is sampled every dt, with samples missing there"
     return "is the model's dt the log's?"
+
+
+def _sampled_every(count: Mapping[str, Any]) -> str:
+    """``sampled every 0.1 s (median), 10 steps of dt``, of an entry with ``every`` and ``steps``.
+
+    :func:`~hybridlog.io.alignment_notes.sampled_every`'s, of an output or a held input alike.
+    """
+    steps = count["steps"]
+    every = f"sampled every {count['every']:g} s (median)"
+    return f"{every}, {steps:g} step{'' if steps == 1 else 's'} of dt"
+
+
+def _held_note(symbol: str, hold: Mapping[str, Any]) -> str:
+    """What ``reading.held`` says of an input (or a command) held over ``max_gap``.
+
+    One sampled regularly (``regular``, :func:`~hybridlog.io.alignment_notes.held_sampling`)
+    is said to be so, at its median step: a NOTE where its longest hold is one of those steps
+    (within :data:`~hybridlog.io.alignment_notes.REGULAR_TOLERANCE`), a WARNING naming its
+    longest hold where a longer one (a dropout) is held too.  Any other is said to be held
+    "as an input published only when it changes is", which a 10 Hz input to a model of
+    ``dt = 0.01`` was said to be, as if irregular.
+    """
+    kind = hold.get("kind", "input")
+    if hold.get("regular") and isinstance(hold.get("every"), int | float):
+        sampled = f"{kind} {symbol} is {_sampled_every(hold)}"
+        if hold["seconds"] <= hold["every"] * (1 + REGULAR_TOLERANCE):
+            return f"NOTE: {sampled}: held between samples (zero-order hold)"
+        return (
+            f"WARNING: {sampled}, held between samples (zero-order hold), and its longest "
+            f"stretch without a sample is from t = {format_time(hold['start'])} to "
+            f"{format_time(hold['end'])} s ({_held_for(hold)} s): held at its last value there"
+        )
+    return (
+        f"WARNING: {kind} {symbol} has no sample {_hold_span(hold)}: held at its last value, "
+        f"as {_article(kind)} published only when it changes is (zero-order hold)"
+    )
 
 
 def report_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
@@ -233,12 +270,7 @@ def log_reading_notes(reading: Mapping[str, Any] | None) -> tuple[str, ...]:
     """
     reading = reading or {}
     notes = unused_sample_notes(reading)
-    notes += [
-        f"WARNING: {hold.get('kind', 'input')} {symbol} has no sample {_hold_span(hold)}: "
-        f"held at its last value, as {_article(hold.get('kind', 'input'))} published only "
-        "when it changes is (zero-order hold)"
-        for symbol, hold in (reading.get("held") or {}).items()
-    ]
+    notes += [_held_note(symbol, hold) for symbol, hold in (reading.get("held") or {}).items()]
     notes += _stamp_clock_notes(reading.get("stamp_offsets") or {})
     dropped = reading.get("jitter_held") or {}
     notes += [

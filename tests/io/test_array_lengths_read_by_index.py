@@ -97,8 +97,11 @@ def test_a_json_array_left_out_of_some_messages_is_no_other_length(tmp_path: Pat
         read(sparse_json(tmp_path / "odd.mcap", 7), "/s.q[0]")
 
 
-def tf_messages(path: Path) -> Path:
-    """``/tf`` from two broadcasters: one transform (odom), then two (base, camera)."""
+def tf_messages(path: Path, one: bool = False) -> Path:
+    """``/tf`` from two broadcasters: one transform (odom), then two (base, camera).
+
+    ``one``: from the second broadcaster alone (two transforms in every message).
+    """
     from mcap_ros2.writer import Writer
 
     def transform(frame: str, t: int) -> dict[str, Any]:
@@ -112,7 +115,7 @@ def tf_messages(path: Path) -> Path:
         schema = writer.register_msgdef("tf2_msgs/msg/TFMessage", msgdef("tf2_msgs/msg/TFMessage"))
         for k in range(10):
             t = 10**9 + k * 10 * MS
-            frames = ["odom"] if k % 2 else ["base", "camera"]
+            frames = ["odom"] if k % 2 and not one else ["base", "camera"]
             message = {"transforms": [transform(frame, t) for frame in frames]}
             writer.write_message("/tf", schema, message, log_time=t, publish_time=t)
         writer.finish()
@@ -135,3 +138,49 @@ def test_inspect_names_the_arrays_an_index_cannot_read(tmp_path: Path) -> None:
     ]
     with pytest.raises(LogError, match=r"\.transforms holds 1 element in the message logged"):
         read(tmp_path / "tf.mcap", "/tf.transforms[0].transform.translation.x")
+
+
+def test_inspect_shows_each_array_s_length_and_a_few_names(tmp_path: Path) -> None:
+    """inspect listed ``/joint_states.position[]`` with no length and ``name[]`` with no
+    value: which indexes a path may take, and which one is joint ``j2``, could not be seen.
+    An array of one length in every message now has it, and a few short texts their first
+    message's values; one whose length differs has none (its problem says why)."""
+    from hybridlog.io.inspect import format_inspection
+
+    info = inspect_log(joint_states(tmp_path / "one.mcap", gripper_every=10**6))
+    assert info["topics"][0]["arrays"] == [
+        {"name": "/joint_states.name[]", "elements": 3, "first": ["j0", "j1", "j2"]},
+        {"name": "/joint_states.position[]", "elements": 3},
+        {"name": "/joint_states.velocity[]", "elements": 0},
+        {"name": "/joint_states.effort[]", "elements": 0},
+    ]
+    text = format_inspection(info)
+    assert "  /joint_states.name[]                3 elements: 'j0', 'j1', 'j2' (the first " in (
+        text
+    )
+    assert "  /joint_states.position[]            3 elements\n" in text
+    two = inspect_log(joint_states(tmp_path / "two.mcap"))["topics"][0]["arrays"]
+    assert [a["name"] for a in two] == ["/joint_states.velocity[]", "/joint_states.effort[]"]
+    tf = inspect_log(tf_messages(tmp_path / "tf.mcap", one=True))
+    assert tf["topics"][0]["arrays"] == [{"name": "/tf.transforms[]", "elements": 2}]
+    assert "/tf.transforms[].transform.translation.x  transforms[]: 2 elements" in (
+        format_inspection(tf)
+    )
+
+
+def test_an_index_out_of_range_names_the_symbol_and_its_map(tmp_path: Path) -> None:
+    """An index past a topic's arrays read ``'/joint_states.position[3]': .position[3]: ...``,
+    without the ``output 'y' (field ..., from --map ...)`` a field the schema lacks is named
+    by: found only in the messages' values, it is named by the same words now."""
+    from hybridlog.io.load import SignalSpec, load_signals
+
+    log = joint_states(tmp_path / "arm.mcap", gripper_every=10**6)
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=(), dt=0.01)
+    maps = ("u=/joint_states.position[0]", "y=/joint_states.position[3]")
+    with pytest.raises(LogError) as err:
+        load_signals(log, spec, ReadOptions(maps=maps))
+    assert str(err.value) == (
+        f"{log}: output 'y' (field '/joint_states.position[3]', from --map "
+        "y=/joint_states.position[3]): .position[3]: index out of range (the array has 3 "
+        "elements) in the message logged at t=1 s"
+    )

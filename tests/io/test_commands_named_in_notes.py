@@ -47,12 +47,13 @@ def test_a_command_held_across_split_gaps_is_a_command(tmp_path: Path) -> None:
     assert signals.input_names == ("u",)
     assert notes["held"] == {
         "cmd": {"start": 2.9, "end": 9.9, "seconds": 7.0, "holds": 1, "kind": "command"}
+        | {"every": 0.1, "steps": 1.0, "regular": True}
     }
     said = [n for n in report_reading_notes(notes) if "held at its last value" in n]
     assert said == [
-        "WARNING: command cmd has no sample from t = 2.9 to 9.9 s (7 s, longer than max_gap): "
-        "held at its last value, as a command published only when it changes is "
-        "(zero-order hold)"
+        "WARNING: command cmd is sampled every 0.1 s (median), 1 step of dt, held between "
+        "samples (zero-order hold), and its longest stretch without a sample is from t = 2.9 "
+        "to 9.9 s (7 s): held at its last value there"
     ]
 
 

@@ -26,7 +26,7 @@ TOPIC = (
     *("name", "type", "encoding", "count", "indexed_count", "start", "end", "duration"),
     *STEPS,
     *GAPS,
-    *("nonfinite", "values", "undecodable", "header_stamp", "fields"),
+    *("nonfinite", "values", "undecodable", "header_stamp", "fields", "arrays"),
 )
 SAMPLES = sorted(p.name for p in SAMPLE_LOGS.iterdir() if p.suffix != ".md")
 

@@ -197,7 +197,8 @@ def test_a_message_integer_beyond_2_53_is_refused_naming_topic_field_and_time(
     path = write(tmp_path / name, msgtype, ints(value))
     with pytest.raises(
         LogError,
-        match=f"^{path}: '/u.data': the value {reason(value, held)} in the message logged "
+        match=f"^{path}: input 'u' \\(field '/u.data', from --map u=/u.data\\): the value "
+        f"{reason(value, held)} in the message logged "
         "at t=0.3 s$",
     ):
         load_signals(path, SPEC, MAPS)

@@ -691,7 +691,10 @@ def test_an_input_held_longer_than_max_gap_is_noted_not_refused() -> None:
     notes: dict[str, Any] = {}
     aligned = align_signals(source="log", dt=0.1, inputs={"u": u}, outputs={"y": y}, notes=notes)
     assert aligned.inputs[-1, 0] == 4.0 and aligned.inputs[55, 0] == 2.0
-    assert notes["held"] == {"u": {"start": 10.0, "end": 40.0, "seconds": 30.0, "holds": 4}}
+    assert notes["held"] == {
+        "u": {"start": 10.0, "end": 40.0, "seconds": 30.0, "holds": 4}
+        | {"every": 4.0, "steps": 40.0, "regular": False}  # 3 steps: too few to be regular
+    }
     assert report_reading_notes(notes) == (
         "WARNING: input u has no sample in 4 stretches longer than max_gap, the longest from "
         "t = 10 to 40 s (30 s): held at its last value, as an input published only when it "
@@ -702,7 +705,7 @@ def test_an_input_held_longer_than_max_gap_is_noted_not_refused() -> None:
         source="log", dt=0.1, inputs={"u": series("cmd", [0.0, 0.3, 10.0], [1.0, 2.0, 3.0])},
         outputs={"y": y}, notes=notes,
     )  # fmt: skip
-    assert notes["held"] == {"u": {"start": 10.0, "end": 40.0, "seconds": 30.0, "holds": 2}}
+    assert notes["held"]["u"]["holds"] == 2 and notes["held"]["u"]["seconds"] == 30.0
     notes = {}
     align_signals(
         source="log", dt=0.1, inputs={"u": series("cmd", [0.0, 0.3, 0.6], [1.0, 2.0, 3.0])},
@@ -737,16 +740,53 @@ def test_an_input_held_over_many_stretches_is_counted_not_named_as_one_gap() -> 
     align_signals(
         source="log", dt=1.0, inputs={"u": u}, outputs={"y": y}, truth_mode=truth, notes=notes
     )
-    assert notes["held"] == {"u": {"start": 290.0, "end": 300.0, "seconds": 10.0, "holds": 30}}
+    assert notes["held"] == {
+        "u": {"start": 290.0, "end": 300.0, "seconds": 10.0, "holds": 30}
+        | {"every": 10.0, "steps": 10.0, "regular": True}
+    }
     assert notes["truth_held"]["mode"]["holds"] == 3
     said = report_reading_notes(notes)
-    assert said[0].startswith(
-        "WARNING: input u has no sample in 30 stretches longer than max_gap, the longest from "
-        "t = 290 to 300 s (10 s): held"
+    assert said[0] == (  # sampled regularly: said so (below), not counted as 30 gaps
+        "NOTE: input u is sampled every 10 s (median), 10 steps of dt: held between samples "
+        "(zero-order hold)"
     )
     assert said[1].startswith(
         "NOTE: the true mode has no sample in 3 stretches longer than max_gap, the longest "
         "from t = 0 to 101 s (101 s): held"
+    )
+
+
+def test_a_regular_input_slower_than_the_model_is_said_to_be_sampled_so() -> None:
+    """A 10 Hz input to a model of dt = 0.01 read "no sample in 100 stretches longer than
+    max_gap ... as an input published only when it changes is": it is regular, only slower
+    than the model, and is said to be so, at its median step, as a bridged output is; a
+    dropout in it is named as its longest hold; one published at irregular times (when it
+    changes) keeps the old words, its stretches counted."""
+    from hybridlog.report.reading_notes import report_reading_notes
+
+    seconds = np.round(np.arange(0.0, 10.0001, 0.01), 6)
+    y = series("level", seconds, np.cos(seconds))
+    tenth = np.round(np.arange(0.0, 10.0001, 0.1), 6)
+    dropout = np.concatenate([tenth[:40], tenth[60:]])
+    on_change = np.sort(np.random.default_rng(1).uniform(0.0, 10.0, 60))
+    said = {}
+    for name, times in (("u", tenth), ("v", dropout), ("w", on_change)):
+        notes: dict[str, Any] = {}
+        inputs = {name: series("cmd", times, times)}
+        align_signals(source="log", dt=0.01, inputs=inputs, outputs={"y": y}, notes=notes)
+        (said[name],) = [n for n in report_reading_notes(notes) if f" {name} " in n]
+    assert said["u"] == (
+        "NOTE: input u is sampled every 0.1 s (median), 10 steps of dt: held between samples "
+        "(zero-order hold)"
+    )
+    assert said["v"] == (
+        "WARNING: input v is sampled every 0.1 s (median), 10 steps of dt, held between samples "
+        "(zero-order hold), and its longest stretch without a sample is from t = 3.9 to 6 s "
+        "(2.1 s): held at its last value there"
+    )
+    assert said["w"].startswith("WARNING: input w has no sample in ")
+    assert said["w"].endswith(
+        "held at its last value, as an input published only when it changes is (zero-order hold)"
     )
 
 

@@ -161,7 +161,9 @@ def test_a_path_that_does_not_fit_the_column_says_why(u: str, words: str, tmp_pa
 
 def test_an_index_beyond_every_row_s_list_is_refused(tmp_path: Path) -> None:
     with pytest.raises(
-        LogError, match=r"'q\[3\]': index out of range \(the lists of 'q' hold 3 elements\)"
+        LogError,
+        match=r"input 'u' \(column 'q\[3\]', from --map u=q\[3\]\): index out of range "
+        r"\(the lists of 'q' hold 3 elements\)",
     ):
         load(nested_log(tmp_path), "u=q[3]", "y=q[1]")
 

@@ -401,7 +401,8 @@ def test_a_json_boolean_among_numbers_is_refused_naming_the_message(
 ) -> None:
     """``true`` was read as 1.0 where a number was meant (CSV and Parquet refuse it)."""
     log = _json_log(tmp_path / "u.mcap", values, schema)
-    with pytest.raises(LogError, match=rf"'/u\.data': the value {words} in the message logged"):
+    said = rf"input 'u' \(field '/u\.data', from --map u=/u\.data\): the value {words} in the"
+    with pytest.raises(LogError, match=said):
         load(log, "/y.data")
 
 

@@ -114,7 +114,8 @@ def test_a_key_the_schema_requires_is_refused_where_a_message_lacks_it(
     log = write(tmp_path / "required.mcap", messages, schema)
     with pytest.raises(
         LogError,
-        match=r"'/io\.y': the message has no field 'y', which the topic's JSON schema lists as "
+        match=r"\(field '/io\.y', from --map y=/io\.y\): the message has no field 'y', which "
+        r"the topic's JSON schema lists as "
         r"required in the message logged at t=0\.7 s",
     ):
         load(log, "u=/io.u", "y=/io.y")
@@ -149,7 +150,9 @@ def test_a_null_value_is_still_refused(tmp_path: Path) -> None:
     messages = interleaved()
     messages[6] = (messages[6][0], {"u": None})
     log = write(tmp_path / "null.mcap", messages)
-    with pytest.raises(LogError, match=r"'/io\.u': the value is null, not a number"):
+    with pytest.raises(
+        LogError, match=r"\(field '/io\.u', from --map u=/io\.u\): the value is null, not"
+    ):
         load(log, "u=/io.u", "y=/io.y")
 
 
@@ -207,7 +210,9 @@ def test_inspect_names_a_field_of_numbers_and_text_as_analyze_refuses_it(tmp_pat
     with pytest.raises(LogError) as refused:
         load(log, "u=/io.u", "y=/io.y")
     words = "'/io.u': the value is a string, not a number in the message logged at t=0.3 s"
-    assert words in str(refused.value)
+    assert words.replace("'/io.u'", "input 'u' (field '/io.u', from --map u=/io.u)") in str(
+        refused.value
+    )
     refuses = "analyze refuses it as an input, output or true state"
     assert inspect_log(log)["problems"] == [
         f"{words} (18 of its values are numbers: {refuses})",
@@ -226,7 +231,7 @@ def test_inspect_names_a_field_of_numbers_and_booleans_as_analyze_refuses_it(
     messages[6] = (messages[6][0], {"u": True, "on": False, "bits": [1, True]})
     messages[8] = (messages[8][0], {"u": 4.0, "on": True, "bits": [0, False]})
     log = write(tmp_path / "booleans.mcap", messages)
-    with pytest.raises(LogError, match=r"'/io\.u': the value is a boolean where the messages"):
+    with pytest.raises(LogError, match=r"/io\.u\): the value is a boolean where the messages"):
         load(log, "u=/io.u", "y=/io.y")
     assert inspect_log(log)["problems"] == [
         "'/io.u': the value is a boolean among numbers in the message logged at t=0.3 s "

@@ -54,7 +54,8 @@ def test_a_negative_index_beyond_a_parquet_list_is_out_of_range(tmp_path: Path) 
     frame = pl.DataFrame({"t": np.arange(n, dtype=np.float64), "q": [[1.0, 2.0, 3.0]] * n})
     log = tmp_path / "q.parquet"
     frame.write_parquet(log)
-    with pytest.raises(LogError, match=r"'q\[-5\]': index out of range \(the lists of 'q' hold 3"):
+    said = r"input 'u' \(column 'q\[-5\]', from --map u=q\[-5\]\): index out of range \(the lists"
+    with pytest.raises(LogError, match=said):
         load_signals(log, SPEC, ReadOptions(maps=("u=q[-5]", "y1=q[1]", "y2=q[0]")))
 
 
