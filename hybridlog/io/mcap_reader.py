@@ -477,8 +477,23 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
 
 
 def _decode_json(data: bytes) -> Any:
-    """A JSON message, refusing duplicate keys (which of the values is meant?)."""
-    return json.loads(data, object_pairs_hook=_unique_keys)
+    """A JSON message, refusing duplicate keys (which of the values is meant?).
+
+    A message that is a bare value (a number, text, a boolean, null) is refused: ``--map``
+    names the fields of an object or the elements of an array, and such a topic had no
+    field for ``inspect`` to list nor any problem said.
+    """
+    message = json.loads(data, object_pairs_hook=_unique_keys)
+    if not isinstance(message, dict | list):
+        raise ValueError(
+            f"the message is a bare {_BARE_JSON[type(message)]}, not a JSON object or array: "
+            "--map names a field or an element of one"
+        )
+    return message
+
+
+_BARE_JSON = {int: "number", float: "number", str: "string", bool: "boolean", type(None): "null"}
+"""What :mod:`json` decodes a JSON value that is neither an object nor an array to."""
 
 
 class McapSource(MessageSource):
