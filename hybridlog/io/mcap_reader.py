@@ -310,7 +310,10 @@ def data_records(handle: IO[bytes]) -> Iterator[Any]:
             raise McapError(f"no channel record found with id {record.channel_id}")
         if isinstance(record, Channel):
             if record.schema_id and record.schema_id not in schemas:
-                raise McapError(f"no schema record found with id {record.schema_id}")
+                raise McapError(
+                    f"no schema record found with id {record.schema_id}, which the channel "
+                    f"of topic {excerpt(record.topic, 60)} names"
+                )
             channels.add(record.id)
         elif isinstance(record, Schema):
             schemas.add(record.id)
