@@ -3,7 +3,9 @@
 MCAP's ``json`` encoding may carry a JSON schema per topic (:func:`parse_json_schema`); a
 mapped path is checked against it before reading (:func:`json_kind`), its fields are listed
 for ``inspect`` (:func:`json_leaves`, no deeper than :data:`MAX_JSON_DEPTH`), and a message
-without a key it lists as ``required`` is refused (:func:`json_required`).
+without a key it lists as ``required`` is refused (:func:`json_required`).  A key an object's
+``properties`` do not list is the messages' to say, unless the object is closed
+(``"additionalProperties": false``), as JSON Schema has it.
 """
 
 from __future__ import annotations
@@ -60,7 +62,14 @@ def json_kind(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
 
 
 def json_type(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
-    """The JSON type a schema gives ``steps`` (``"integer"``, ...), or ``None`` if none."""
+    """The JSON type a schema gives ``steps`` (``"integer"``, ...), or ``None`` if none.
+
+    Raises
+    ------
+    PathError
+        Where ``steps`` index what is no array, or name a key a closed object (its
+        ``additionalProperties`` false) does not list.
+    """
     node: Any = schema
     done: list[Step] = []
     for step in steps:
@@ -75,6 +84,8 @@ def json_type(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
             if not isinstance(properties, Mapping):
                 return None
             if step not in properties:
+                if node.get("additionalProperties", True) is not False:
+                    return None  # the messages may hold keys the schema does not list
                 names = [spell_field(str(k)) for k in properties]
                 raise no_field(format_steps(done) or "the message", step, names)
             node = properties[step]

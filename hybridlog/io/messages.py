@@ -501,8 +501,8 @@ class MessageSource(abc.ABC):
                 elif counter.stamps is not None:
                     header_stamp, stamp_problems = counter.stamps.describe(self.path)
                     problems.extend(stamp_problems)
-                # JSON without a schema: the fields its messages hold
-                fields = fields or list(counter.fields)
+                # JSON: the fields its messages hold too (a schema need not list them all)
+                fields = list(dict.fromkeys([*fields, *counter.fields]))
             topics.append(
                 {
                     "name": name,

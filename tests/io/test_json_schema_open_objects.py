@@ -1,0 +1,52 @@
+"""A JSON schema's ``properties`` list some of an object's keys, not all of them.
+
+JSON Schema closes an object only with ``"additionalProperties": false``.  A topic whose
+schema listed ``w`` while its messages held ``v`` too (an older schema, a logger that added
+a field) had ``v`` left out of ``inspect``'s fields, and ``--map y=/y.v`` was refused with
+"the message has no field 'v'; fields: 'w'", which every message contradicts.  The messages
+now decide where the schema does not close the object.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from hybridlog.errors import LogError
+from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
+from tests.support.logfiles import Channel, write_mcap
+
+SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
+
+
+def _log(path: Path, schema: dict[str, Any]) -> Path:
+    channels = [
+        Channel("/u", encoding="json", schema_encoding="none"),
+        Channel("/y", "json", "Y", "jsonschema", json.dumps(schema)),
+    ]
+    messages = [
+        (channel, 10**9 + k * 10**8, json.dumps(message).encode())
+        for k in range(10)
+        for channel, message in ((0, {"u": float(k)}), (1, {"v": -2.0 * k, "w": 1.0}))
+    ]
+    return write_mcap(path, channels, messages, profile="")
+
+
+LISTS_W = {"type": "object", "properties": {"w": {"type": "number"}}}
+
+
+def test_a_key_the_schema_does_not_list_is_listed_and_read(tmp_path: Path) -> None:
+    log = _log(tmp_path / "open.mcap", LISTS_W)
+    (_, topic) = inspect_log(log)["topics"]
+    assert topic["fields"] == ["/y.w", "/y.v"]
+    signals = load_signals(log, SPEC, ReadOptions(maps=("u=/u.u", "y=/y.v")))
+    assert signals.outputs[:, 0].tolist() == [-2.0 * k for k in range(10)]
+
+
+def test_a_closed_object_still_refuses_a_key_it_does_not_list(tmp_path: Path) -> None:
+    log = _log(tmp_path / "closed.mcap", {**LISTS_W, "additionalProperties": False})
+    with pytest.raises(LogError, match="has no field 'v'; fields: 'w'"):
+        load_signals(log, SPEC, ReadOptions(maps=("u=/u.u", "y=/y.v")))
