@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import abc
 from array import array
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
@@ -62,6 +62,7 @@ from hybridlog.io.message_paths import (
     check_path,
     format_steps,
     from_the_start,
+    split_path,
     split_paths,
 )
 from hybridlog.io.message_topics import (
@@ -501,8 +502,7 @@ class MessageSource(abc.ABC):
                 elif counter.stamps is not None:
                     header_stamp, stamp_problems = counter.stamps.describe(self.path)
                     problems.extend(stamp_problems)
-                # JSON: the fields its messages hold too (a schema need not list them all)
-                fields = list(dict.fromkeys([*fields, *counter.fields]))
+                fields = _with_found_fields(topic, fields, counter.fields)
             topics.append(
                 {
                     "name": name,
@@ -567,3 +567,26 @@ def _describe_times(stamps: IntArray) -> dict[str, Any]:
         span["end"] = seconds_of(stamps[-1])
         span["duration"] = seconds_of(int(stamps[-1]) - int(stamps[0]))
     return {**span, **describe_steps(stamps)}
+
+
+def _with_found_fields(topic: Topic, listed: list[str], found: Iterable[str]) -> list[str]:
+    """A JSON topic's fields: those its schema lists, then those found in its messages.
+
+    A schema need not list every key (JSON Schema closes an object only with
+    ``"additionalProperties": false``); a key a closed object leaves out is not listed, as
+    ``analyze`` refuses it.
+    """
+    schema = topic.json_schema
+    out = dict.fromkeys(listed)
+    for field in found:
+        if field in out:
+            continue
+        if schema is not None:
+            try:
+                json_kind(
+                    schema, split_path(topic.name + field.replace("[]", "[0]"), [topic.name]).steps
+                )
+            except PathError:
+                continue
+        out[field] = None
+    return list(out)

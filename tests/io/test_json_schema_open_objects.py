@@ -50,3 +50,5 @@ def test_a_closed_object_still_refuses_a_key_it_does_not_list(tmp_path: Path) ->
     log = _log(tmp_path / "closed.mcap", {**LISTS_W, "additionalProperties": False})
     with pytest.raises(LogError, match="has no field 'v'; fields: 'w'"):
         load_signals(log, SPEC, ReadOptions(maps=("u=/u.u", "y=/y.v")))
+    (_, topic) = inspect_log(log)["topics"]
+    assert topic["fields"] == ["/y.w"]  # not a key analyze refuses
