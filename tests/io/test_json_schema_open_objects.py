@@ -5,6 +5,9 @@ schema listed ``w`` while its messages held ``v`` too (an older schema, a logger
 a field) had ``v`` left out of ``inspect``'s fields, and ``--map y=/y.v`` was refused with
 "the message has no field 'v'; fields: 'w'", which every message contradicts.  The messages
 now decide where the schema does not close the object.
+
+What a schema says through a local ``$ref`` (``#/definitions/P``, ``#/$defs/P``) is read
+too: a key ``required`` there was read from the messages that carry it, as an optional one.
 """
 
 from __future__ import annotations
@@ -52,3 +55,26 @@ def test_a_closed_object_still_refuses_a_key_it_does_not_list(tmp_path: Path) ->
         load_signals(log, SPEC, ReadOptions(maps=("u=/u.u", "y=/y.v")))
     (_, topic) = inspect_log(log)["topics"]
     assert topic["fields"] == ["/y.w"]  # not a key analyze refuses
+
+
+@pytest.mark.parametrize("definitions", ["definitions", "$defs"])
+def test_a_key_required_through_a_reference_is_required(definitions: str, tmp_path: Path) -> None:
+    # what the schema says of ``/y.p.v`` is in the definition ``p``'s ``$ref`` names
+    point = {"type": "object", "properties": {"v": {"type": "number"}}, "required": ["v"]}
+    schema = {
+        "type": "object",
+        definitions: {"P": point},
+        "properties": {"p": {"$ref": f"#/{definitions}/P"}},
+    }
+    channels = [
+        Channel("/u", encoding="json", schema_encoding="none"),
+        Channel("/y", "json", "Y", "jsonschema", json.dumps(schema)),
+    ]
+    messages = [
+        (channel, 10**9 + k * 10**8, json.dumps(message).encode())
+        for k in range(10)
+        for channel, message in ((0, {"u": float(k)}), (1, {"p": {"v": 1.0} if k != 4 else {}}))
+    ]
+    log = write_mcap(tmp_path / "ref.mcap", channels, messages, profile="")
+    with pytest.raises(LogError, match=r"no field 'v', which the topic's JSON schema lists as"):
+        load_signals(log, SPEC, ReadOptions(maps=("u=/u.u", "y=/y.p.v")))
