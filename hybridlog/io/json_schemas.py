@@ -79,6 +79,25 @@ def parse_json_schema(data: bytes) -> Mapping[str, Any] | None:
     return schema if isinstance(schema, dict) else None
 
 
+def unread_schema(data: bytes) -> str | None:
+    """Why a topic's JSON schema is passed over (not JSON, nor a schema), or ``None``.
+
+    An empty schema says nothing, nor does ``true`` or ``false`` (JSON Schema's own), an
+    object is read (:func:`parse_json_schema`); anything else was passed over in silence,
+    its ``required`` keys with it.
+    """
+    try:
+        schema = json.loads(data) if data else None
+    except (ValueError, UnicodeDecodeError) as err:
+        return f"its JSON schema is not JSON ({err})"
+    if schema is None or isinstance(schema, dict | bool):
+        return None
+    kind = (
+        "array" if isinstance(schema, list) else "string" if isinstance(schema, str) else "number"
+    )
+    return f"its JSON schema is a JSON {kind}, not an object"
+
+
 def json_kind(schema: Mapping[str, Any], steps: Sequence[Step]) -> str | None:
     """What ``steps`` name in a JSON schema, or ``None`` where the schema does not say."""
     return {

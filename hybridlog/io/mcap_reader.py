@@ -46,7 +46,7 @@ from hybridlog.io.definitions import (
     typestore_for,
 )
 from hybridlog.io.formats import MCAP_MAGIC, LogFormat
-from hybridlog.io.json_schemas import parse_json_schema
+from hybridlog.io.json_schemas import parse_json_schema, unread_schema
 from hybridlog.io.message_topics import Topic
 from hybridlog.io.messages import MessageSource
 from hybridlog.io.options import ReadOptions
@@ -644,6 +644,8 @@ class McapSource(MessageSource):
             topic.decode = _decode_json
             if schema is not None and schema.encoding == "jsonschema":
                 topic.json_schema = parse_json_schema(schema.data)
+                if (unread := unread_schema(schema.data)) is not None:
+                    topic.note = f"{unread}: passed over, the messages read as they are"
             return topic
         if encoding not in ("cdr", "ros1"):
             topic.problem = (

@@ -472,8 +472,8 @@ class MessageSource(abc.ABC):
                 first, last = int(stamps[0]), int(stamps[-1])
                 start = first if start is None else min(start, first)
                 end = last if end is None else max(end, last)
-            if topic.problem:
-                problems.append(f"topic {topic.label}: {topic.problem}")
+            if topic.problem or topic.note:
+                problems.append(f"topic {topic.label}: {topic.problem or topic.note}")
             elif topic.json_schema is not None and topic.typedefs is None:
                 too_deep = json_leaves(topic.json_schema).too_deep
                 if too_deep is not None:

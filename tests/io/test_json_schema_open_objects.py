@@ -8,6 +8,8 @@ now decide where the schema does not close the object.
 
 What a schema says through a local ``$ref`` (``#/definitions/P``, ``#/$defs/P``) is read
 too: a key ``required`` there was read from the messages that carry it, as an optional one.
+A schema that is not JSON, or not an object, was passed over in silence; ``inspect`` now
+says so (the messages are read as they are).
 """
 
 from __future__ import annotations
@@ -25,10 +27,11 @@ from tests.support.logfiles import Channel, write_mcap
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=0.1)
 
 
-def _log(path: Path, schema: dict[str, Any]) -> Path:
+def _log(path: Path, schema: dict[str, Any] | str) -> Path:
+    text = schema if isinstance(schema, str) else json.dumps(schema)
     channels = [
         Channel("/u", encoding="json", schema_encoding="none"),
-        Channel("/y", "json", "Y", "jsonschema", json.dumps(schema)),
+        Channel("/y", "json", "Y", "jsonschema", text),
     ]
     messages = [
         (channel, 10**9 + k * 10**8, json.dumps(message).encode())
@@ -78,3 +81,24 @@ def test_a_key_required_through_a_reference_is_required(definitions: str, tmp_pa
     log = write_mcap(tmp_path / "ref.mcap", channels, messages, profile="")
     with pytest.raises(LogError, match=r"no field 'v', which the topic's JSON schema lists as"):
         load_signals(log, SPEC, ReadOptions(maps=("u=/u.u", "y=/y.p.v")))
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        ("{not json", "its JSON schema is not JSON (Expecting property name"),
+        ("[1]", "its JSON schema is a JSON array, not an object"),
+        ("true", None),
+    ],
+)
+def test_a_schema_passed_over_is_said_so(text: str, said: str | None, tmp_path: Path) -> None:
+    log = _log(tmp_path / "unread.mcap", text)
+    problems = inspect_log(log)["problems"]
+    if said is None:
+        assert problems == []
+    else:
+        (problem,) = problems
+        assert problem.startswith(f"topic '/y' (Y): {said}")
+        assert problem.endswith("passed over, the messages read as they are")
+    signals = load_signals(log, SPEC, ReadOptions(maps=("u=/u.u", "y=/y.v")))
+    assert signals.outputs[:, 0].tolist() == [-2.0 * k for k in range(10)]
