@@ -576,17 +576,23 @@ def _with_found_fields(topic: Topic, listed: list[str], found: Iterable[str]) ->
     ``"additionalProperties": false``); a key a closed object leaves out is not listed, as
     ``analyze`` refuses it.
     """
-    schema = topic.json_schema
     out = dict.fromkeys(listed)
     for field in found:
-        if field in out:
-            continue
-        if schema is not None:
-            try:
-                json_kind(
-                    schema, split_path(topic.name + field.replace("[]", "[0]"), [topic.name]).steps
-                )
-            except PathError:
-                continue
-        out[field] = None
+        if field not in out and not _left_out(topic, field):
+            out[field] = None
     return list(out)
+
+
+def _left_out(topic: Topic, field: str) -> bool:
+    """Whether ``topic``'s JSON schema refuses ``field`` (a key a closed object leaves out)."""
+    if topic.json_schema is None:
+        return False
+    try:
+        steps = split_path(topic.name + field.replace("[]", "[0]"), [topic.name]).steps
+    except PathError:
+        return False  # listed as found; a mapping of it says what is wrong
+    try:
+        json_kind(topic.json_schema, steps)
+    except PathError:
+        return True
+    return False
