@@ -46,7 +46,7 @@ from hybridlog.io.definitions import (
     typestore_for,
 )
 from hybridlog.io.formats import MCAP_MAGIC, LogFormat
-from hybridlog.io.json_schemas import parse_json_schema
+from hybridlog.io.json_schemas import parse_json_schema, unread_schema
 from hybridlog.io.message_topics import Topic
 from hybridlog.io.messages import MessageSource
 from hybridlog.io.options import ReadOptions
@@ -310,7 +310,10 @@ def data_records(handle: IO[bytes]) -> Iterator[Any]:
             raise McapError(f"no channel record found with id {record.channel_id}")
         if isinstance(record, Channel):
             if record.schema_id and record.schema_id not in schemas:
-                raise McapError(f"no schema record found with id {record.schema_id}")
+                raise McapError(
+                    f"no schema record found with id {record.schema_id}, which the channel "
+                    f"of topic {excerpt(record.topic, 60)} names"
+                )
             channels.add(record.id)
         elif isinstance(record, Schema):
             schemas.add(record.id)
@@ -477,8 +480,23 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
 
 
 def _decode_json(data: bytes) -> Any:
-    """A JSON message, refusing duplicate keys (which of the values is meant?)."""
-    return json.loads(data, object_pairs_hook=_unique_keys)
+    """A JSON message, refusing duplicate keys (which of the values is meant?).
+
+    A message that is a bare value (a number, text, a boolean, null) is refused: ``--map``
+    names the fields of an object or the elements of an array, and such a topic had no
+    field for ``inspect`` to list nor any problem said.
+    """
+    message = json.loads(data, object_pairs_hook=_unique_keys)
+    if not isinstance(message, dict | list):
+        raise ValueError(
+            f"the message is a bare {_BARE_JSON[type(message)]}, not a JSON object or array: "
+            "--map names a field or an element of one"
+        )
+    return message
+
+
+_BARE_JSON = {int: "number", float: "number", str: "string", bool: "boolean", type(None): "null"}
+"""What :mod:`json` decodes a JSON value that is neither an object nor an array to."""
 
 
 class McapSource(MessageSource):
@@ -626,6 +644,8 @@ class McapSource(MessageSource):
             topic.decode = _decode_json
             if schema is not None and schema.encoding == "jsonschema":
                 topic.json_schema = parse_json_schema(schema.data)
+                if (unread := unread_schema(schema.data)) is not None:
+                    topic.note = f"{unread}: passed over, the messages read as they are"
             return topic
         if encoding not in ("cdr", "ros1"):
             topic.problem = (

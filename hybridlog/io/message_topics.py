@@ -42,6 +42,9 @@ class Topic:
         definition), or ``None``.
     json_schema:
         The topic's JSON schema, for JSON messages that have one.
+    note:
+        What ``inspect`` says of a topic whose messages are read nonetheless (a JSON schema
+        passed over), or ``None``.
     """
 
     name: str
@@ -52,6 +55,7 @@ class Topic:
     decode: Callable[[bytes], object] | None = None
     problem: str | None = None
     json_schema: Mapping[str, Any] | None = None
+    note: str | None = None
 
     @property
     def label(self) -> str:

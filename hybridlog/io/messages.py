@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import abc
 from array import array
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any, Self
@@ -62,6 +62,7 @@ from hybridlog.io.message_paths import (
     check_path,
     format_steps,
     from_the_start,
+    split_path,
     split_paths,
 )
 from hybridlog.io.message_topics import (
@@ -471,8 +472,8 @@ class MessageSource(abc.ABC):
                 first, last = int(stamps[0]), int(stamps[-1])
                 start = first if start is None else min(start, first)
                 end = last if end is None else max(end, last)
-            if topic.problem:
-                problems.append(f"topic {topic.label}: {topic.problem}")
+            if topic.problem or topic.note:
+                problems.append(f"topic {topic.label}: {topic.problem or topic.note}")
             elif topic.json_schema is not None and topic.typedefs is None:
                 too_deep = json_leaves(topic.json_schema).too_deep
                 if too_deep is not None:
@@ -501,8 +502,7 @@ class MessageSource(abc.ABC):
                 elif counter.stamps is not None:
                     header_stamp, stamp_problems = counter.stamps.describe(self.path)
                     problems.extend(stamp_problems)
-                # JSON without a schema: the fields its messages hold
-                fields = fields or list(counter.fields)
+                fields = _with_found_fields(topic, fields, counter.fields)
             topics.append(
                 {
                     "name": name,
@@ -567,3 +567,32 @@ def _describe_times(stamps: IntArray) -> dict[str, Any]:
         span["end"] = seconds_of(stamps[-1])
         span["duration"] = seconds_of(int(stamps[-1]) - int(stamps[0]))
     return {**span, **describe_steps(stamps)}
+
+
+def _with_found_fields(topic: Topic, listed: list[str], found: Iterable[str]) -> list[str]:
+    """A JSON topic's fields: those its schema lists, then those found in its messages.
+
+    A schema need not list every key (JSON Schema closes an object only with
+    ``"additionalProperties": false``); a key a closed object leaves out is not listed, as
+    ``analyze`` refuses it.
+    """
+    out = dict.fromkeys(listed)
+    for field in found:
+        if field not in out and not _left_out(topic, field):
+            out[field] = None
+    return list(out)
+
+
+def _left_out(topic: Topic, field: str) -> bool:
+    """Whether ``topic``'s JSON schema refuses ``field`` (a key a closed object leaves out)."""
+    if topic.json_schema is None:
+        return False
+    try:
+        steps = split_path(topic.name + field.replace("[]", "[0]"), [topic.name]).steps
+    except PathError:
+        return False  # listed as found; a mapping of it says what is wrong
+    try:
+        json_kind(topic.json_schema, steps)
+    except PathError:
+        return True
+    return False

@@ -55,7 +55,9 @@ def test_arrays_of_text_are_listed_as_the_label_fields_they_are(tmp_path: Path) 
                 mcap.add_message(channel, k * NS, json.dumps(document).encode(), k * NS)
         mcap.finish()
     topics = {t["name"]: t for t in inspect_log(log)["topics"]}
-    assert topics["/a"]["fields"] == ["/a.tags[]"]
+    # the schema's fields first, then those its messages hold beyond them (a JSON schema's
+    # ``properties`` do not close an object unless ``additionalProperties`` is false)
+    assert topics["/a"]["fields"] == ["/a.tags[]", "/a.on[]", "/a.xs[]"]
     assert topics["/b"]["fields"] == ["/b.tags[]", "/b.on[]", "/b.xs[]"]
     assert [v["name"] for v in topics["/b"]["values"]] == ["/b.xs[]"]  # numbers alone
     with open_log(log, ReadOptions()) as source:

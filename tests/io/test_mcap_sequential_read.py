@@ -28,7 +28,7 @@ from mcap.reader import make_reader
 from mcap.writer import Writer
 
 from hybridlog.errors import LogError
-from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
 from hybridlog.io.mcap_reader import UnfinishedLogError
 from hybridlog.model.cache import load_model
 from tests.support.paths import SAMPLE_LOGS
@@ -156,3 +156,18 @@ def test_a_message_of_a_channel_never_recorded_ends_the_read_for_every_count(
     assert recovered.time[-1] == 114.0  # message 918 is at 114.5 s: the read stopped there
     with pytest.raises(LogError, match="no channel record found with id 262"):
         read(damaged, spec, recover=False)
+
+
+def test_a_channel_naming_a_schema_never_recorded_is_refused_naming_its_topic(
+    tmp_path: Path,
+) -> None:
+    # the mcap writer takes any schema id: a recorder that numbered its schemas wrongly
+    path = tmp_path / "unknown_schema.mcap"
+    with path.open("wb") as handle:
+        writer = Writer(handle)
+        writer.start(profile="", library="tests")
+        channel = writer.register_channel("/odom", "ros1", 42)
+        writer.add_message(channel, 10**9, struct.pack("<d", 1.0), 10**9)
+        writer.finish()
+    with pytest.raises(LogError, match=r"schema record found with id 42, .* topic '/odom' names"):
+        inspect_log(path)
