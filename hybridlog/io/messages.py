@@ -461,6 +461,9 @@ class MessageSource(abc.ABC):
                 f"{read} message{'' if read == 1 else 's'}: the counts and times above are of "
                 "those"
             )
+        # counts are checked against the index only where the file was read whole: a topic's
+        # own problem (a schema passed over, a depth) must not skip the check of the next
+        read_whole = not problems
         topics = []
         undecodable: list[str] = []
         start, end = None, None
@@ -482,7 +485,7 @@ class MessageSource(abc.ABC):
                         f"{MAX_JSON_DEPTH} levels at {excerpt(too_deep, 80)}; the fields below "
                         "are not listed"
                     )
-            if topic.count is not None and topic.count != stamps.size and not problems:
+            if topic.count is not None and topic.count != stamps.size and read_whole:
                 problems.append(
                     f"topic {name!r}: {stamps.size} messages found but the index lists "
                     f"{topic.count}"
