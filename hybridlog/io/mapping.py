@@ -148,8 +148,10 @@ class SignalMap:
         for symbol, read in self.fields_read().items():
             if read["field"] == name:
                 origin = read["from"]
-                where = {"--map": f"from --map {symbol}={name}", "default": "the default"}
-                said = where.get(origin, f"from the model's {origin}")
+                said = f"from --map {symbol}={name}"
+                if origin != "--map":  # as resolve_signal_map says a field it refuses
+                    where = "the default" if origin == "default" else f"from the model's {origin}"
+                    said = f"{where}; use --map {symbol}=... for another"
                 described = _describe(symbol, tuple(self.inputs), tuple(self.commands))
                 return f"{described} ({field_word} {name!r}, {said})"
         return None

@@ -189,9 +189,11 @@ class TopicReader:
                 except RowError as err:
                     reason = str(err.error)  # "is 1.7e+18 s ...", or what the path lacks
                     said = f" {reason}" if reason.startswith(("is ", "has ")) else f": {reason}"
-                    raise LogError(
-                        f"{self.source.path}: topic {self.topic.label}: header.stamp{said} "
-                        f"in {self._where(times, first + err.row)} (--time header needs it)"
+                    raise FieldError(  # named by the first path read of the topic
+                        self.source.path,
+                        self.wanted[0].text,
+                        f"topic {self.topic.label}: header.stamp{said} in "
+                        f"{self._where(times, first + err.row)} (--time header needs it)",
                     ) from None
         for wanted, values, labels, carried in zip(
             self.wanted, numbers, texts, present, strict=True
@@ -316,9 +318,7 @@ class TopicReader:
         assert wanted.lengths is not None
         reason = wanted.lengths.check(lengths, times)
         if reason is not None:
-            raise LogError(
-                f"{self.source.path}: topic {self.topic.label}: {wanted.text!r}: {reason}"
-            )
+            raise FieldError(self.source.path, wanted.text, f"topic {self.topic.label}: {reason}")
 
     def _refuse_overflow(
         self,
@@ -543,11 +543,12 @@ class TopicReader:
                     found = closest_names(
                         [wanted.missing], list(map(spell_field, wanted.keys_seen))
                     )
-                    raise LogError(
-                        f"{self.source.path}: {wanted.text!r}: none of the {carried.size} "
-                        f"messages of topic {self.topic.label} has field "
-                        f"{format_steps(wanted.path.steps).removeprefix('.')!r}; "
-                        + found.replace("available", "fields found")
+                    raise FieldError(
+                        self.source.path,
+                        wanted.text,
+                        f"none of the {carried.size} messages of topic {self.topic.label} has "
+                        f"field {format_steps(wanted.path.steps).removeprefix('.')!r}; "
+                        + found.replace("available", "fields found"),
                     )
                 time_ns = all_times[carried]
                 order, keep = self._order(time_ns, log_times[carried], field=wanted.text)

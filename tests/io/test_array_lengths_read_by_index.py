@@ -60,11 +60,21 @@ def test_an_index_into_arrays_of_two_lengths_is_refused(tmp_path: Path, time: st
     with pytest.raises(LogError) as err:
         read(log, "/joint_states.position[0]", time=time)
     message = str(err.value)
-    assert message.startswith(f"{log}: topic '/joint_states'"), message
-    assert "'/joint_states.position[0]': .position holds 1 element in the message logged at" in (
-        message
-    )
+    assert message.startswith(f"{log}: '/joint_states.position[0]': topic '/joint_states'")
+    assert ": .position holds 1 element in the message logged at" in message
     assert "t=1.041 s, but 3 elements in the topic's first, logged at t=1 s" in message
+    # read for a model's signal, named as the mapping names a field (FieldError)
+    from hybridlog.io.load import SignalSpec, load_signals
+
+    spec = SignalSpec(inputs=(), outputs=("y",), mode_ids=(), dt=0.01)
+    maps = ("y=/joint_states.position[0]",)
+    with pytest.raises(LogError) as err:
+        load_signals(log, spec, ReadOptions(maps=maps, time=time))
+    assert str(err.value).startswith(
+        f"{log}: output 'y' (field '/joint_states.position[0]', from --map "
+        "y=/joint_states.position[0]): topic '/joint_states' (sensor_msgs/msg/JointState): "
+        ".position holds 1 element"
+    ), str(err.value)
 
 
 def test_arrays_of_one_length_still_read(tmp_path: Path) -> None:

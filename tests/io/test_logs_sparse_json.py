@@ -95,8 +95,8 @@ def test_a_field_no_message_carries_is_refused_listing_those_found(tmp_path: Pat
     log = write(tmp_path / "sparse.mcap", interleaved())
     with pytest.raises(
         LogError,
-        match=r"'/io\.yy': none of the 40 messages of topic '/io' .*has field 'yy'; "
-        r"closest: 'y'",
+        match=r"output 'y' \(field '/io\.yy', from --map y=/io\.yy\): none of the 40 messages "
+        r"of topic '/io' .*has field 'yy'; closest: 'y'",
     ):
         load(log, "u=/io.u", "y=/io.yy")
 
