@@ -54,7 +54,8 @@ def trajectory(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Sample times, throttle samples (held over each interval) and true states.
 
-    The state jumps by R at the first sample of a new mode, as eq. (4).
+    As ``hybridlog simulate``: the mode of row ``k + 1`` governs the interval into it, and
+    the state jumps by R at its start ``t_k^+`` (eq. (4)); row ``k`` keeps the state before.
     """
     count = modes.shape[0]
     times = np.arange(count) * dt
@@ -64,14 +65,14 @@ def trajectory(
     states[0] = x
     for k in range(count - 1):
         sol = solve_ivp(
-            lambda _t, s, q=int(modes[k]), a=float(alpha[k]): plant(q, s, a, p),
+            lambda _t, s, q=int(modes[k + 1]), a=float(alpha[k]): plant(q, s, a, p),
             (times[k], times[k + 1]),
-            x,
+            jump(int(modes[k]), int(modes[k + 1]), x, p),
             method="DOP853",
             rtol=rtol,
             atol=rtol * 1e-2,
         )
-        x = jump(int(modes[k]), int(modes[k + 1]), sol.y[:, -1], p)
+        x = sol.y[:, -1]
         states[k + 1] = x
     return times, alpha, states
 
