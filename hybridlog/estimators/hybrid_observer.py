@@ -384,6 +384,7 @@ def _check_step(model: HybridModel, eigenvalues: tuple[float, ...]) -> None:
 def _last_interval(
     model: HybridModel,
     signals: AlignedSignals,
+    modes: Any,
     states: FloatArray,
     predictions: FloatArray,
     first: int,
@@ -394,7 +395,8 @@ def _last_interval(
     outlier of the log (``1e6`` where ``h`` predicts 140), not the model, is then the cause,
     which the numbers show.  The prior (sample 0) predicts nothing: no ``ŷ`` for it.  Where
     the log did not measure ``y(k-1)`` the interval had no correction (module doc), and the
-    value the alignment put there is not shown as a measurement.
+    value the alignment put there is not shown as a measurement; nor had the interval a
+    switch opened (``R`` applied at ``t_{k-1}^+``, module doc).
     """
     if first < 1:
         return ""
@@ -404,6 +406,14 @@ def _last_interval(
         for name, value in zip(model.states, states[before].tolist(), strict=True)
     ]
     shown = ", ".join(values[:MAX_SHOWN]) + (", …" if len(values) > MAX_SHOWN else "")
+    if modes[before] != modes[first]:
+        jump = model.jump_between(int(modes[before]), int(modes[first]))
+        mapped = "" if jump is None else f", then {jump.key}"
+        return (
+            f"; the interval before ran without correction (the switch to mode "
+            f"'{model.mode_ids[int(modes[first])]}' just after t = "
+            f"{format_time(signals.time[before])} s) from the estimate {shown}{mapped}"
+        )
     if signals.unmeasured_outputs is not None and signals.unmeasured_outputs[before, 0]:
         return (
             f"; the interval before ran without correction ({model.outputs[0]} not measured "
@@ -426,8 +436,9 @@ def _jump_before(
     sign) throws the estimate far from the measurement; the correction ``Q⁻¹K(y − h)`` then
     diverges a few samples later in a mode whose expressions are all finite, and the
     refusal named the gain alone.  Named when a map was applied at the switch that began
-    the mode running at ``first`` (eqs. (45)-(46) of paper 004 are such maps) and the output
-    error just after it is larger than just before it.
+    the mode running at ``first`` (eqs. (45)-(46) of paper 004 are such maps; at ``t_k^+``
+    after the mode's first row's predecessor ``k``, module doc) and the output error at that
+    first row is larger than at ``k``.
     """
     modes, outputs = arguments[1], arguments[3]
     predictions, jumped = arguments[11], arguments[13]
@@ -442,11 +453,13 @@ def _jump_before(
     error_before = abs(before - float(predictions[start - 1]))
     if jump is None or not error_after > error_before:  # NaN (not measured): no claim
         return ""
-    samples = first - start
+    samples = first - start + 1
     return (
-        f"; the jump map {jump.key} at t = {format_time(signals.time[start])} s, "
-        f"{samples} sample{'s' if samples != 1 else ''} before, left the estimate predicting "
-        f"{model.outputs[0]} = {float(predictions[start]):.6g} against {after:.6g} measured"
+        f"; the jump map {jump.key}, applied just after t = "
+        f"{format_time(signals.time[start - 1])} s, {samples} sample"
+        f"{'s' if samples != 1 else ''} before, left the estimate predicting "
+        f"{model.outputs[0]} = {float(predictions[start]):.6g} against {after:.6g} measured "
+        f"at t = {format_time(signals.time[start])} s"
     )
 
 
@@ -471,6 +484,8 @@ def _singular_q(
     if first < 1 or np.isfinite(condition[first - 1]):
         return ""
     if signals.unmeasured_outputs is not None and signals.unmeasured_outputs[first - 1, 0]:
+        return ""
+    if modes[first - 1] != modes[first]:  # a switch opened the interval: run open loop
         return ""
     time_s = signals.time
     import sympy
@@ -570,8 +585,13 @@ def _rhs_flaw(
     _, modes, inputs, outputs, _, gain = arguments[:6]
     n = model.n_states
     x = np.array(arguments[10][before], dtype=np.float64)
-    q, u, y = int(modes[before]), inputs[before], float(outputs[before, 0])
-    inject = not np.isnan(y)  # y not measured there: the interval had no correction
+    q, u, y = int(modes[before + 1]), inputs[before], float(outputs[before, 0])
+    # y not measured there, or a switch opened the interval: it had no correction
+    inject = not np.isnan(y) and modes[before] == modes[before + 1]
+    if modes[before] != modes[before + 1]:  # the interval ran from the jumped estimate
+        jumped = np.empty(n)
+        module.reset(int(modes[before]), q, x, jumped)
+        x = jumped
     work = (np.empty(1), np.empty((n, n)), np.empty((n, n)), np.empty(n), np.empty(n))
     jacobian = np.empty((n, n))
     high, low = np.empty(n), np.empty(n)
@@ -641,7 +661,7 @@ def _divergence(
         "estimate is not finite"
     )
     origin = model.origin or model.name
-    last = _last_interval(model, signals, states, predictions, first)
+    last = _last_interval(model, signals, modes, states, predictions, first)
     last += _jump_before(model, signals, arguments, first)
     if first < 1:
         return DivergenceError(f"{origin}: {where}")

@@ -75,11 +75,39 @@ def test_a_jump_map_the_log_does_not_bear_out_is_named(tmp_path):
         prepare(model, "switching-observer").run(model, signals)
     message = str(caught.value)
     named = re.search(
-        r'; the jump map jumps\."0->1" at t = (\S+) s, (\d+) samples? before, left the '
-        r"estimate predicting y = (\S+) against (\S+) measured$",
+        r'; the jump map jumps\."0->1", applied just after t = (\S+) s, (\d+) samples? '
+        r"before, left the estimate predicting y = (\S+) against (\S+) measured at t = (\S+) "
+        r"s$",
         message,
     )
     assert named is not None, message
     assert float(named.group(3)) < 0 < float(named.group(4))
+    # the mode of row k + 1 runs the interval into it, its map applied at t_k^+ (as simulate)
     switch = int(np.flatnonzero(np.diff(signals.truth_modes))[-1]) + 1
-    assert float(named.group(1)) == pytest.approx(signals.time[switch])
+    assert float(named.group(1)) == pytest.approx(signals.time[switch - 1])
+    assert float(named.group(5)) == pytest.approx(signals.time[switch])
+
+
+def test_a_divergence_in_the_interval_a_switch_opened_says_it_ran_open_loop(tmp_path):
+    """The interval after a switch runs from the jumped estimate without correction (its
+    only measurement was taken before the jump): not "corrected with y = ...", which it
+    was not, but the switch and the map applied."""
+    text = builtin_text("ice_clutch")
+    edited = text.replace('omega = "JE/(JE + JL)*omega"', 'omega = "1e200*omega"')
+    path = tmp_path / "clutch.toml"
+    path.write_text(edited)
+    plant = load_model("ice_clutch")
+    signals = simulate(plant, steps=700, noise=False).signals(plant)
+    model = load_model(str(path))
+    with pytest.raises(ModelError) as caught:
+        prepare(model, "switching-observer").run(model, signals)
+    message = str(caught.value)
+    switch = int(np.flatnonzero(np.diff(signals.truth_modes))[0]) + 1
+    assert f"(sample {switch}): " in message
+    assert re.search(
+        r"; the interval before ran without correction \(the switch to mode '1' just after "
+        r"t = \S+ s\) from the estimate m = \S+, omega = \S+, T = \S+, then "
+        r'jumps\."0->1"$',
+        message,
+    ), message
+    assert "corrected with" not in message
