@@ -60,11 +60,11 @@ def test_a_broken_first_step_has_no_prediction_to_show(clutch):
     assert " measured at the estimate m = " in message and "predicted" not in message
 
 
-def test_a_jump_map_the_log_does_not_bear_out_is_named(tmp_path):
-    """``omega = "-omega"`` at the clutch's engagement: the estimate diverged 4 samples later
-    and the refusal named the gain alone, never the map that threw it off the log."""
+def engagement_refused(tmp_path, omega):
+    """The refusal of the clutch's observer whose engagement map is ``omega = "<omega>"``, on
+    a log of the built-in (whose map keeps omega's sign and size), and that log's signals."""
     text = builtin_text("ice_clutch")
-    edited = text.replace('omega = "JE/(JE + JL)*omega"', 'omega = "-omega"')
+    edited = text.replace('omega = "JE/(JE + JL)*omega"', f'omega = "{omega}"')
     assert edited != text
     path = tmp_path / "clutch.toml"
     path.write_text(edited)
@@ -73,7 +73,13 @@ def test_a_jump_map_the_log_does_not_bear_out_is_named(tmp_path):
     model = load_model(str(path))
     with pytest.raises(ModelError) as caught:
         prepare(model, "switching-observer").run(model, signals)
-    message = str(caught.value)
+    return str(caught.value), signals
+
+
+def test_a_jump_map_the_log_does_not_bear_out_is_named(tmp_path):
+    """``omega = "-omega"`` at the clutch's engagement: the estimate diverged 4 samples later
+    and the refusal named the gain alone, never the map that threw it off the log."""
+    message, signals = engagement_refused(tmp_path, "-omega")
     named = re.search(
         r'; the jump map jumps\."0->1", applied just after t = (\S+) s, (\d+) samples? '
         r"before, left the estimate predicting y = (\S+) against (\S+) measured at t = (\S+) "
@@ -92,16 +98,7 @@ def test_a_divergence_in_the_interval_a_switch_opened_says_it_ran_open_loop(tmp_
     """The interval after a switch runs from the jumped estimate without correction (its
     only measurement was taken before the jump): not "corrected with y = ...", which it
     was not, but the switch and the map applied."""
-    text = builtin_text("ice_clutch")
-    edited = text.replace('omega = "JE/(JE + JL)*omega"', 'omega = "1e200*omega"')
-    path = tmp_path / "clutch.toml"
-    path.write_text(edited)
-    plant = load_model("ice_clutch")
-    signals = simulate(plant, steps=700, noise=False).signals(plant)
-    model = load_model(str(path))
-    with pytest.raises(ModelError) as caught:
-        prepare(model, "switching-observer").run(model, signals)
-    message = str(caught.value)
+    message, signals = engagement_refused(tmp_path, "1e200*omega")
     switch = int(np.flatnonzero(np.diff(signals.truth_modes))[0]) + 1
     assert f"(sample {switch}): " in message
     assert re.search(
