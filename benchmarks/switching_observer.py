@@ -44,7 +44,11 @@ AGREEMENT_TARGET = 1e-6
 
 
 def clutch_log(model: HybridModel, seconds: float) -> AlignedSignals:
-    """The plant over ``seconds``: one ``solve_ivp`` call per dwell, jumps between them."""
+    """The plant over ``seconds``: one ``solve_ivp`` call per dwell, jumps between them.
+
+    As ``hybridlog simulate`` writes a log: the mode of row ``k + 1`` governs the interval
+    into it, so a dwell's jump is applied just after its first row's predecessor.
+    """
     values = {k: float(v) for k, v in model.parameters.items()}
     dt = model.dt
     count = round(seconds / dt)
@@ -54,29 +58,34 @@ def clutch_log(model: HybridModel, seconds: float) -> AlignedSignals:
     alpha = 0.4 + 0.1 * np.sin(2 * times)
     states = np.empty((count, 3))
     x = np.array([0.08, 140.0, 15.0])
+    states[0] = x
     for start in range(0, count, per):
         stop = min(start + per, count)
         mode = int(modes[start])
+        first = max(start, 1)  # row 0 is the initial state
         if start:
             x = clutch.jump(int(modes[start - 1]), mode, x, values)
-        span = times[start:stop]
-        end = times[stop] if stop < count else times[-1] + dt
         sol = solve_ivp(
             lambda t, s, q=mode: clutch.plant(q, s, 0.4 + 0.1 * np.sin(2 * t), values),
-            (span[0], end),
+            (times[first - 1], times[stop - 1]),
             x,
             method="DOP853",
             rtol=1e-10,
             atol=1e-12,
-            t_eval=np.append(span, end),
+            t_eval=times[first - 1 : stop],
         )
-        states[start:stop] = sol.y[:, :-1].T
+        states[first:stop] = sol.y[:, 1:].T
         x = sol.y[:, -1]
     return clutch.signals(times, alpha, states, modes)
 
 
 def reference(model: HybridModel, signals: AlignedSignals, count: int) -> np.ndarray:
-    """Observer (20) over the first ``count`` samples integrated by ``solve_ivp``."""
+    """Observer (20) over the first ``count`` samples integrated by ``solve_ivp``.
+
+    As the compiled observer reads sigma: the mode of row ``k + 1`` governs ``(t_k,
+    t_{k+1}]``, a switch applies ``R`` at ``t_k^+`` and runs that interval without output
+    injection.
+    """
     module = observer_module(model)
     from hybridlog.estimators.hybrid_observer import brunovsky_gain
 
@@ -89,10 +98,12 @@ def reference(model: HybridModel, signals: AlignedSignals, count: int) -> np.nda
     hv = np.empty(1)
     q_matrix = np.empty((3, 3))
 
-    def rhs(s: float, x: np.ndarray, k: int, slope: float) -> np.ndarray:
-        q, uk = int(modes[k]), u[k]
+    def rhs(s: float, x: np.ndarray, k: int, slope: float, inject: bool) -> np.ndarray:
+        q, uk = int(modes[k + 1]), u[k]
         xc = np.ascontiguousarray(x)
         module.dx(q, xc, uk, out)
+        if not inject:
+            return np.asarray(out.copy())
         module.h(q, xc, uk, hv)
         module.Q(q, xc, uk, q_matrix)
         innovation = y[k] + slope * (s - t[k]) - hv[0]
@@ -103,18 +114,23 @@ def reference(model: HybridModel, signals: AlignedSignals, count: int) -> np.nda
     estimates[0] = x
     scale = np.array([0.1, 100.0, 10.0])
     for k in range(count - 1):
-        if k > 0 and modes[k - 1] == modes[k]:
-            slope = (y[k] - y[k - 1]) / (t[k] - t[k - 1])
-        else:
-            module.dx(int(modes[k]), x, u[k], out)
-            module.Q(int(modes[k]), x, u[k], q_matrix)
-            slope = float(q_matrix[0] @ out)
-        sol = solve_ivp(rhs, (t[k], t[k + 1]), x, args=(k, slope), rtol=1e-10, atol=1e-12 * scale)
-        x = np.ascontiguousarray(sol.y[:, -1])
-        if modes[k + 1] != modes[k]:
+        q = int(modes[k + 1])
+        inject = q == int(modes[k])
+        if not inject:  # the switch at t_k^+
             jumped = np.empty(3)
-            module.reset(int(modes[k]), int(modes[k + 1]), x, jumped)
+            module.reset(int(modes[k]), q, x, jumped)
             x = jumped
+        slope = 0.0
+        if inject and k > 0 and modes[k - 1] == q:
+            slope = (y[k] - y[k - 1]) / (t[k] - t[k - 1])
+        elif inject:
+            module.dx(q, x, u[k], out)
+            module.Q(q, x, u[k], q_matrix)
+            slope = float(q_matrix[0] @ out)
+        sol = solve_ivp(
+            rhs, (t[k], t[k + 1]), x, args=(k, slope, inject), rtol=1e-10, atol=1e-12 * scale
+        )
+        x = np.ascontiguousarray(sol.y[:, -1])
         estimates[k + 1] = x
     return estimates
 
