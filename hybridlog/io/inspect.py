@@ -8,7 +8,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import replace
 from typing import Any
 
-from hybridlog.errors import as_text, names_apart
+from hybridlog.errors import as_text, excerpt, names_apart
 from hybridlog.io.formats import open_log
 from hybridlog.io.mcap_reader import UnfinishedLogError
 from hybridlog.io.options import ReadOptions
@@ -42,7 +42,9 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         MCAP file's ``profile``), ``messages, topics`` (each ``name, type, encoding, count,
         indexed_count, start, end, duration``, the same step keys, ``nonfinite``, ``values``,
         ``undecodable``, ``header_stamp`` and ``fields``), ``time`` (``start, end,
-        duration``), ``problems`` and ``reading``.  The times are log times;
+        duration``), ``problems`` and ``reading`` (and an MCAP file's ``attachments`` and
+        ``metadata_records``, :class:`~hybridlog.io.mcap_side_records.SideRecords`).  The
+        times are log times;
         ``header_stamp`` is what ``--time header`` reads instead (``start, end``,
         ``offset``: the median of stamp minus log time, ``count``), ``None`` for a topic
         without one, and ``problems`` name the stamps that option refuses or that lie a
@@ -266,6 +268,7 @@ def _format_messages(info: dict[str, Any]) -> str:
         lines.extend(_aligned_words(_field_line(f, arrays) for f in shown))
         if len(fields) > len(shown):
             lines.append(f"  ... {len(fields) - len(shown)} more (see --json)")
+    lines.extend(_side_record_lines(info))
     reading = info.get("reading") or {}
     if reading.get("metadata"):
         lines.append("")
@@ -290,6 +293,37 @@ def _format_messages(info: dict[str, Any]) -> str:
         lines.append("problems:")
         lines.extend(f"  {p}" for p in problems)
     return "\n".join(lines)
+
+
+def _side_record_lines(info: dict[str, Any]) -> list[str]:
+    """An MCAP file's attachments and metadata records, a line each (none: no lines).
+
+    A metadata record shows its first six entries, each value cut to 40 characters;
+    ``--json`` has them all.
+    """
+    lines: list[str] = []
+    attachments = info.get("attachments") or []
+    if attachments:
+        lines += ["", "attachments (files the log carries; analyze reads only its messages):"]
+        for attachment in attachments:
+            media = attachment["media_type"]
+            lines.append(
+                f"  {_shown(attachment['name'])}: {_shown(media) if media else 'no media type'}, "
+                f"{_count(attachment['bytes'], 'byte')}, log time {_at(attachment['log_time'])} s"
+            )
+    records = info.get("metadata_records") or []
+    if records:
+        lines += [
+            "",
+            "metadata records (key-value pairs the log carries; analyze reads only its messages):",
+        ]
+        for record in records:
+            pairs = list(record["entries"].items())
+            said = ", ".join(f"{_shown(key)} = {excerpt(value, 40)}" for key, value in pairs[:6])
+            if len(pairs) > 6:
+                said += f", ... {len(pairs) - 6} more (see --json)"
+            lines.append(f"  {_shown(record['name'])}: {said or 'no entries'}")
+    return lines
 
 
 def _stamp_lines(topics: list[dict[str, Any]]) -> list[str]:

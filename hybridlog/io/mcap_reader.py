@@ -47,6 +47,7 @@ from hybridlog.io.definitions import (
 )
 from hybridlog.io.formats import MCAP_MAGIC, LogFormat
 from hybridlog.io.json_schemas import parse_json_schema, unread_schema
+from hybridlog.io.mcap_side_records import SideRecords
 from hybridlog.io.message_topics import Topic
 from hybridlog.io.messages import MessageSource
 from hybridlog.io.options import ReadOptions
@@ -527,6 +528,9 @@ class McapSource(MessageSource):
         self._stop: str | None = None
         self._extra_types: dict[str, Any] | None = None
         self._stores: dict[int, Any] = {}
+        # attachments and metadata records: collected by a sequential read, else walked for
+        # when inspect asks (analyze never does)
+        self._side: SideRecords | None = None
         try:
             self._handle = self._file.open("rb")
             schemas, channels, counts = self._structure()
@@ -576,6 +580,7 @@ class McapSource(MessageSource):
         assert self._handle is not None
         schemas: dict[int, Any] = {}
         channels: dict[int, Any] = {}
+        self._side = SideRecords()
         total = 0
         try:
             for record in data_records(self._handle):
@@ -585,6 +590,8 @@ class McapSource(MessageSource):
                     schemas[record.id] = record
                 elif isinstance(record, Channel):
                     channels[record.id] = record
+                else:
+                    self._side.add(record)
         except Exception as err:  # the first record that is cut off or corrupt ends the read
             if not self.options.recover:
                 raise
@@ -711,6 +718,13 @@ class McapSource(MessageSource):
             raise err from None
         self._stores[schema.id] = store
         return store
+
+    def _side_records(self) -> SideRecords:
+        """Collected by a sequential read, else walked for (:meth:`SideRecords.walk`)."""
+        if self._side is None:
+            assert self._handle is not None
+            self._side = SideRecords.walk(self._handle)
+        return self._side
 
     # -- reading
 

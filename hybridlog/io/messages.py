@@ -56,6 +56,7 @@ from hybridlog.errors import HybridlogError, LogError, excerpt
 from hybridlog.io.definitions import first_line
 from hybridlog.io.header_stamps import HEADER_STAMP
 from hybridlog.io.json_schemas import MAX_JSON_DEPTH, json_kind, json_leaves
+from hybridlog.io.mcap_side_records import SideRecords
 from hybridlog.io.message_paths import (
     MessagePath,
     PathError,
@@ -544,6 +545,9 @@ class MessageSource(abc.ABC):
                     }.items()
                 )
         total = sum(t["count"] for t in topics)
+        side = self._side_records()
+        if side is not None and side.problem is not None:
+            problems.append(side.problem)
         return {
             "path": self.path,
             "format": self._format,
@@ -559,7 +563,12 @@ class MessageSource(abc.ABC):
             },
             "problems": [*problems, *undecodable],
             "reading": dict(self._notes),
+            **({} if side is None else side.describe()),
         }
+
+    def _side_records(self) -> SideRecords | None:
+        """An MCAP file's attachments and metadata records; ``None`` for other formats."""
+        return None
 
 
 def _describe_times(stamps: IntArray) -> dict[str, Any]:

@@ -59,6 +59,7 @@ from hybridlog.io.mcap_reader import (
     recover_hint,
     rosbags_summary_problem,
 )
+from hybridlog.io.mcap_side_records import SideRecords
 from hybridlog.io.message_topics import Topic
 from hybridlog.io.messages import MessageSource
 from hybridlog.io.options import ReadOptions
@@ -189,6 +190,13 @@ class BagSource(MessageSource):
         except Exception as err:  # rosbags raises assorted errors on damaged bags
             self.close()
             raise LogError(self._open_problem(err)) from None
+
+    def _side_records(self) -> SideRecords | None:
+        """A ``ros2``-profile MCAP file's attachments and metadata records (walked for)."""
+        if self._kind != "mcap":
+            return None
+        with self._file.open("rb") as handle:
+            return SideRecords.walk(handle)
 
     # ------------------------------------------------------------------ opening
 

@@ -26,7 +26,13 @@ from mcap.writer import CompressionType, IndexType
 
 from hybridlog.cli import cli
 from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
-from tests.support.logfiles import VARIANT_TOPICS, variant_values, write_mcap_variant
+from tests.support.logfiles import (
+    VARIANT_ATTACHMENT,
+    VARIANT_METADATA,
+    VARIANT_TOPICS,
+    variant_values,
+    write_mcap_variant,
+)
 
 CONFORMANCE = Path(__file__).parents[1] / "data" / "mcap-conformance"
 
@@ -40,8 +46,19 @@ def test_every_conformance_input_lists_the_expected_topics_and_counts() -> None:
     )
     assert len(expected) == 416
     wrong: dict[str, Any] = {}
+    carrying = 0
     for name, counts in expected.items():
         info = inspect_log(CONFORMANCE / name)
+        # attachments and metadata records, as the mcap library's streaming read finds them
+        side = _side_records_streamed(CONFORMANCE / name)
+        listed_side = (
+            [(a["name"], a["media_type"], a["bytes"], a["log_time"]) for a in info["attachments"]],
+            [(m["name"], m["entries"]) for m in info["metadata_records"]],
+        )
+        carrying += bool(side[0] or side[1])
+        if listed_side != side:
+            wrong[name] = ("attachments and metadata", listed_side, side)
+            continue
         found = {t["name"]: t["count"] for t in info["topics"]}
         damage = [p for p in info["problems"] if any(w in p for w in DAMAGE_WORDS)]
         listed = [
@@ -53,6 +70,25 @@ def test_every_conformance_input_lists_the_expected_topics_and_counts() -> None:
             wrong[name] = (found, counts, damage, listed)
     example = next(iter(wrong.items()), None)
     assert not wrong, f"{len(wrong)} of {len(expected)} read wrongly, e.g. {example}"
+    assert carrying == 28  # OneAttachment's 14 variants and OneMetadata's 14
+
+
+def _side_records_streamed(path: Path) -> tuple[list[Any], list[Any]]:
+    """The Attachment and Metadata records of ``path``, streamed by the mcap library."""
+    from mcap.records import Attachment, Metadata
+    from mcap.stream_reader import StreamReader
+
+    attachments: list[Any] = []
+    metadata: list[Any] = []
+    with path.open("rb") as handle:
+        for record in StreamReader(handle).records:
+            if isinstance(record, Attachment):
+                attachments.append(
+                    (record.name, record.media_type, len(record.data), record.log_time / 1e9)
+                )
+            elif isinstance(record, Metadata):
+                metadata.append((record.name, dict(record.metadata)))
+    return attachments, metadata
 
 
 def test_undecodable_conformance_channels_are_listed_with_their_counts() -> None:
@@ -81,7 +117,7 @@ COMPRESSIONS = [CompressionType.ZSTD, CompressionType.LZ4, CompressionType.NONE]
 def test_every_writer_variant_gives_the_same_counts_and_values(
     profile: str, tmp_path: Path
 ) -> None:
-    steps = 40
+    steps = 40  # the attachment and metadata half way, at 20 s
     expected = variant_values(np.arange(steps))
     wrong: list[str] = []
     for number, (chunking, indexes, channels, schemas, statistics) in enumerate(WRITER_VARIANTS):
@@ -102,9 +138,14 @@ def test_every_writer_variant_gives_the_same_counts_and_values(
             SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("a",), dt=1.0),
             ReadOptions(maps=("u=/u.data", "y=/y.data")),
         )
+        name, media_type, data = VARIANT_ATTACHMENT
         same = (
             counts == dict.fromkeys(VARIANT_TOPICS, steps)
             and info["problems"] == []
+            and info["attachments"]
+            == [{"name": name, "media_type": media_type, "bytes": len(data), "log_time": 20.0}]
+            and info["metadata_records"]
+            == [{"name": VARIANT_METADATA[0], "entries": VARIANT_METADATA[1]}]
             and np.array_equal(signals.time, np.arange(steps, dtype=float))
             and np.array_equal(signals.inputs[:, 0], expected["/u"])
             and np.array_equal(signals.outputs[:, 0], expected["/y"])

@@ -530,7 +530,9 @@ def write_mcap_variant(path: Path, profile: str, steps: int = 40, **writer_optio
     """``/u`` and ``/y`` (``Float64``, one per second) with the given ``Writer`` options.
 
     ``profile`` ``"ros2"`` (or ``""``) writes CDR with ``ros2msg`` schemas, ``"ros1"`` ROS 1
-    serialisation with ``ros1msg`` schemas, as the ``ros2``/``ros1`` profiles require.
+    serialisation with ``ros1msg`` schemas, as the ``ros2``/``ros1`` profiles require.  Half
+    way through, the file gets :data:`VARIANT_ATTACHMENT` and :data:`VARIANT_METADATA`
+    (indexed in the summary or not, as ``index_types`` says).
     """
     ros1 = profile == "ros1"
     values = variant_values(np.arange(steps))
@@ -548,12 +550,20 @@ def write_mcap_variant(path: Path, profile: str, steps: int = 40, **writer_optio
             for topic in VARIANT_TOPICS
         }
         for k in range(steps):
+            if k == steps // 2:
+                name, media_type, data = VARIANT_ATTACHMENT
+                writer.add_attachment(k * NS, k * NS, name, media_type, data)
+                writer.add_metadata(*VARIANT_METADATA)
             for topic in VARIANT_TOPICS:
                 value = float(values[topic][k])
                 data = struct.pack("<d", value) if ros1 else float64_cdr(value)
                 writer.add_message(channels[topic], k * NS, data, k * NS, k)
         writer.finish()
     return path
+
+
+VARIANT_ATTACHMENT = ("calibration.yaml", "text/yaml", b"gain: 2.5\n" * 50)
+VARIANT_METADATA = ("robot", {"serial": "A-17", "firmware": "2.4.1"})
 
 
 # --------------------------------------------------------------------- definitions that lie
