@@ -218,6 +218,12 @@ def test_a_missed_switch_fails_a_gate_on_the_detection_delay() -> None:
         "detection_delay_s = 0.4 is a mean over the detected switches that leaves out 1 of 2 "
         "true switches, missed: b → a at t=3 s, so the --fail-over bound 1 cannot be met"
     ]
+    # a component's detection delay alike
+    with_component = replace(
+        report(), modes=replace(report().modes, components={"valve": report().modes})
+    )
+    (message,) = evaluate_gates(with_component, parse_gates([], ["detection_delay_s.valve=1"]))
+    assert message.startswith("detection_delay_s.valve = 0.4 is a mean over the detected")
 
 
 def test_missed_gates_name_metric_value_and_bound() -> None:
