@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from dataclasses import replace
 from functools import partial
 from typing import Any, NamedTuple
 
@@ -346,6 +347,57 @@ def transition_matrix(model: HybridModel, options: ImmOptions) -> FloatArray:
     return markov_matrix(0.95, model.n_modes)
 
 
+def unreachable_modes(prior: FloatArray, transitions: FloatArray) -> list[int]:
+    """The modes the IMM gives probability 0 at every sample, whatever the log.
+
+    The mixing step gives mode j the predicted probability ``c̄_j = Σ_i Π_ij μ_i`` and the
+    update keeps ``μ_j ∝ Λ_j c̄_j``: a mode with prior probability 0 that no mode of
+    positive probability can move into (``Π_ij = 0``, as with ``transition_stay = 1``, the
+    identity) stays at 0, so its estimate is never that mode.  Returns their indices, the
+    closure of the prior's support under ``Π > 0`` left out.
+    """
+    reached = prior > 0.0
+    while True:
+        grown = reached | (transitions[reached] > 0.0).any(axis=0)
+        if (grown == reached).all():
+            return [int(j) for j in np.flatnonzero(~reached)]
+        reached = grown
+
+
+def unreachable_note(
+    model: HybridModel, transitions: FloatArray, used: dict[str, Any]
+) -> str | None:
+    """Why some of ``model``'s modes are never estimated (:func:`unreachable_modes`), or None.
+
+    ``--set transition_stay=1`` with the three-tank prior on mode '2' held mode 2 through
+    the whole log, and the report said only that the innovations were large.
+    """
+    never = unreachable_modes(model.initial_mode_probabilities, transitions)
+    if not never:
+        return None
+    ids = ", ".join(f"'{model.mode_ids[j]}'" for j in never)
+    support = ", ".join(
+        f"'{model.mode_ids[j]}'" for j in np.flatnonzero(model.initial_mode_probabilities > 0.0)
+    )
+    stay = used.get("transition_stay")
+    matrix = "the model's [transitions]" if stay is None else f"transition_stay = {stay:g}"
+    return (
+        f"WARNING: mode{'s' if len(never) > 1 else ''} {ids} can never be estimated: the prior "
+        f"([initial]) gives {'them' if len(never) > 1 else 'it'} probability 0 and the Markov "
+        f"matrix ({matrix}) never moves probability into {'them' if len(never) > 1 else 'it'} "
+        f"from {support}, so {'their' if len(never) > 1 else 'its'} probability is 0 at every "
+        "sample whatever the log; give a Markov matrix that reaches them, or a prior on them"
+    )
+
+
+def _noted(result: EstimationResult, filtered: _Filtered) -> EstimationResult:
+    """``result`` with :func:`unreachable_note` (on a model the IMM runs as it is)."""
+    if filtered.paired is not None or filtered.model.has_components:
+        return result
+    note = unreachable_note(filtered.model, filtered.transitions, filtered.used)
+    return result if note is None else replace(result, notes=(*result.notes, note))
+
+
 class _Filtered(NamedTuple):
     """What :func:`_filtered_model` gives.
 
@@ -459,7 +511,7 @@ def run_imm(
             checked_as=_checked_as(ran),
         )
     if not _offline(options):
-        return _read_back(filtered, ran, argmax=True)
+        return _noted(_read_back(filtered, ran, argmax=True), ran)
     from hybridlog.estimators.smoothing import post_process
 
     result = post_process(
@@ -476,7 +528,7 @@ def run_imm(
         beam=options.beam,
         paired=ran.paired,
     )
-    return _read_back(result, ran, argmax=options.mode_sequence == "argmax")
+    return _noted(_read_back(result, ran, argmax=options.mode_sequence == "argmax"), ran)
 
 
 def stream_imm(
@@ -521,7 +573,7 @@ def stream_imm(
         rows=rows,
         checked_as=_checked_as(ran),
     )
-    return (_read_back(chunk, ran, argmax=True) for chunk in chunks)
+    return (_noted(_read_back(chunk, ran, argmax=True), ran) for chunk in chunks)
 
 
 def _store_record(p: Program, row: str, mode: int, x: Vector, P: Matrix) -> None:

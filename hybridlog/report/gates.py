@@ -16,7 +16,9 @@ Metric names
 ``mode_accuracy``
     ``report.modes.accuracy``, a fraction in ``[0, 1]``.
 ``detection_delay_s``
-    Mean detection delay of true mode switches, seconds.
+    Mean detection delay of the detected true mode switches, seconds.  A ``--fail-over``
+    gate on it fails while any true switch was missed (a miss has no delay, so the mean
+    over the others vouches for no bound), naming the missed switches.
 ``missed_switches``
     Number of true mode switches never detected.
 ``state_rmse.<x>``
@@ -66,6 +68,7 @@ from hybridlog.report.coverage import component_coverage, mode_coverage
 from hybridlog.report.document import Report
 from hybridlog.report.report_json import JsonValue
 from hybridlog.report.report_parts import ModeReport, OutputReport, Smoothing, StateReport
+from hybridlog.times import format_time
 
 __all__ = [
     "FALLBACK_METRICS",
@@ -82,6 +85,7 @@ __all__ = [
     "parse_gate",
     "parse_gates",
     "recorded_failures",
+    "switches_missed",
     "validate_gates",
 ]
 
@@ -701,6 +705,27 @@ def outputs_left_out(report: Report, name: str) -> str | None:
     return f"{len(missing)} of {len(report.outputs)} outputs: " + "; ".join(reasons)
 
 
+def switches_missed(report: Report, name: str) -> str | None:
+    """For ``detection_delay_s`` (or ``.<c>``), the true switches its mean leaves out as missed.
+
+    ``None`` for another metric or when no switch was missed; else ``1 of 2 true switches,
+    missed: 2 → 1 at t=81 s``.  A missed switch has no delay, so the mean over the detected
+    ones is no upper bound of the detection delay: ``--fail-over detection_delay_s=100``
+    was met with ``detection_delay_s = 91`` while the switch at 81 s was never detected.
+    """
+    base, dot, qualifier = name.partition(".")
+    if base != "detection_delay_s":
+        return None
+    modes = report.modes.components.get(qualifier) if dot else report.modes
+    detection = None if modes is None else modes.detection
+    if detection is None or not detection.missed:
+        return None
+    missed = [e for e in detection.events if e.missed]
+    listed = ", ".join(f"{e.from_mode} → {e.to_mode} at t={format_time(e.t)} s" for e in missed[:3])
+    more = f" and {len(missed) - 3:,} more" if len(missed) > 3 else ""
+    return f"{len(missed):,} of {len(detection.events):,} true switches, missed: {listed}{more}"
+
+
 def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
     """Check gates against a report.
 
@@ -721,9 +746,10 @@ def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
         so the --fail-under bound 90 cannot be met"``.  For a report of offline estimates
         (``smoothing``) the value says which it is: ``"mode_accuracy = 0.92 (of the
         offline estimates: kim-rts, argmax; the filter's own: 0.86) is under the bound
-        0.95"``.  A mode accuracy scored over part of the log (a true mode that starts
-        late) says over which samples: ``"mode_accuracy = 0.8 over 201 of 301 samples (the
-        true mode starts at t = 100 s) is under the bound 0.9"``.
+        0.95"``.  A ``--fail-over`` gate on ``detection_delay_s`` fails while a true switch
+        was missed (:func:`switches_missed`).  A mode accuracy scored over part of the log
+        (a true mode that starts late) says over which samples: ``"mode_accuracy = 0.8 over
+        201 of 301 samples (the true mode starts at t = 100 s) is under the bound 0.9"``.
 
     Raises
     ------
@@ -745,6 +771,12 @@ def evaluate_gates(report: Report, gates: Iterable[Gate]) -> list[str]:
                 f"{gate.metric} = {_fmt(value)}{_which_side(report, gate.metric)} is a mean "
                 f"that leaves out {partial}, so the {gate.option} bound {_fmt(gate.bound)} "
                 "cannot be met"
+            )
+        elif gate.kind == "over" and (missed := switches_missed(report, gate.metric)):
+            failures.append(
+                f"{gate.metric} = {_fmt(value)}{_which_side(report, gate.metric)} is a mean "
+                f"over the detected switches that leaves out {missed}, so the {gate.option} "
+                f"bound {_fmt(gate.bound)} cannot be met"
             )
         elif (gate.kind == "under" and value < gate.bound) or (
             gate.kind == "over" and value > gate.bound

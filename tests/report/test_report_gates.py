@@ -202,7 +202,28 @@ def test_all_gates_met_gives_no_messages() -> None:
     every_output = replace(
         report(), outputs={**report().outputs, "y2": OutputReport(0.5, 87.2, None, 40)}
     )
-    assert evaluate_gates(every_output, gates) == []
+    # every true switch detected (a miss fails --fail-over detection_delay_s: below)
+    detection = Detection(
+        mean_s=0.4, max_s=0.4, events=(SwitchDetection(1.0, "a", "b", detected_t=1.4),)
+    )
+    every_switch = replace(every_output, modes=replace(every_output.modes, detection=detection))
+    assert evaluate_gates(every_switch, gates) == []
+
+
+def test_a_missed_switch_fails_a_gate_on_the_detection_delay() -> None:
+    # hstf on a 2:80,1:120,3:100 log: the switch at 81 s missed, the one at 201 s detected
+    # 91 s late; --fail-over detection_delay_s=100 was "met (detection_delay_s = 91)"
+    gates = parse_gates(["detection_delay_s=0.1"], ["detection_delay_s=1"])
+    assert evaluate_gates(report(), gates) == [
+        "detection_delay_s = 0.4 is a mean over the detected switches that leaves out 1 of 2 "
+        "true switches, missed: b → a at t=3 s, so the --fail-over bound 1 cannot be met"
+    ]
+    # a component's detection delay alike
+    with_component = replace(
+        report(), modes=replace(report().modes, components={"valve": report().modes})
+    )
+    (message,) = evaluate_gates(with_component, parse_gates([], ["detection_delay_s.valve=1"]))
+    assert message.startswith("detection_delay_s.valve = 0.4 is a mean over the detected")
 
 
 def test_missed_gates_name_metric_value_and_bound() -> None:
