@@ -52,7 +52,7 @@ from hybridlog.jobs import arguments
 from hybridlog.jobs.cluster_plot import plot_clusters
 from hybridlog.jobs.estimation import input_paths, read_log
 from hybridlog.model.cache import load_model
-from hybridlog.model.compiled import model_key
+from hybridlog.model.compiled import plant_key
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
     PathLike,
@@ -612,7 +612,7 @@ def discover_modes(
     few = few_vectors_warning(int(np.count_nonzero(fitted_on)), scored)
     content: dict[str, Any] = {
         "model": model.name,
-        "model_key": model_key(model),
+        "model_key": plant_key(model),
         "dt": model.dt,
         "log": as_text(log),
         "mode_ids": list(model.mode_ids),
