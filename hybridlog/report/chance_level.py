@@ -1,14 +1,27 @@
-"""The warning that a mode accuracy is below what a constant answer scores on the same log.
+r"""The warning that a mode accuracy is below chance (Cohen's kappa below 0).
 
-A mode accuracy is read against what it would be without an estimator: always answering the
-true mode that covers most of the scored samples scores that mode's share (the majority
-share, from the report's confusion table).  An estimate below it tells less about the true
-mode than that constant does; :func:`chance_level_warning` says so, with both numbers, so a
-reader does not take 0.28 on a log whose true mode is '2' 64 % of the time for a weak but
-informative estimate; ``hybridlog cluster`` says the same of its decision rule's accuracy
-(:func:`below_majority`).  Paper 001's clustering estimators on the double cart (``chiu``,
-``kmeans``; docs/double_cart.md "Beyond sinusoids") reach 0.26-0.43 on a chirp or a 1 rad/s
-sine there, exit 0 and no warning before this.
+Below chance: the estimate agrees with the truth less often than modes drawn independently
+of it would.
+
+Chance is the agreement of estimated modes drawn independently of the true ones with the
+same frequencies as the estimate's (Cohen's chance agreement),
+
+.. math::
+
+    p_e = \sum_m p_{\mathrm{true}}(m)\, p_{\mathrm{est}}(m), \qquad
+    \kappa = \frac{a - p_e}{1 - p_e},
+
+with ``a`` the mode accuracy over the same samples.  An accuracy below ``p_e`` (κ < 0)
+means the estimated modes are anti-correlated with the true ones: a labelling the reverse
+of the truth, say.  Not the majority share: on a log whose true mode is '1' 98 % of the
+time, an estimate that catches every '2' with some false alarms scores below 98 % and is
+far from chance.  On a log with a single true mode every estimate is at chance (κ = 0) and
+none is warned of.
+
+Paper 001's clustering estimators on the double cart (``chiu``, ``kmeans``;
+docs/double_cart.md "Beyond sinusoids") scored 0.26-0.43 on a chirp or a 1 rad/s sine,
+exit 0 and no word; :func:`chance_level_warning` says it of a report,
+:func:`below_chance` of ``hybridlog cluster``'s decision rule.
 """
 
 from __future__ import annotations
@@ -18,39 +31,45 @@ from collections.abc import Mapping
 from hybridlog.report.document import Report
 from hybridlog.report.markdown import WARNING_PREFIX
 
-__all__ = ["below_majority", "chance_level_warning"]
+__all__ = ["below_chance", "chance_level_warning"]
 
 
-def below_majority(accuracy: float, counts: Mapping[str, int]) -> str | None:
-    """``mode accuracy 28.3 % is below the 63.5 % ...`` when it is, else ``None``.
+def below_chance(confusion: Mapping[str, Mapping[str, int]]) -> str | None:
+    """``mode accuracy 28.3 % is below chance ...`` when it is, else ``None``.
 
-    ``counts``: the scored samples of each true mode.  ``hybridlog cluster`` says it of
-    its decision rule's accuracy, :func:`chance_level_warning` of a report's.
+    ``confusion``: ``{true mode: {estimated mode: samples}}`` over the scored samples.
     """
-    scored = sum(counts.values())
+    scored = sum(sum(row.values()) for row in confusion.values())
     if scored == 0:
         return None
-    frequent = max(counts, key=lambda mode: counts[mode])
-    share = counts[frequent] / scored
-    if accuracy >= share:
+    hits = sum(row.get(mode, 0) for mode, row in confusion.items())
+    estimated: dict[str, int] = {}
+    for row in confusion.values():
+        for mode, count in row.items():
+            estimated[mode] = estimated.get(mode, 0) + count
+    chance = sum(sum(row.values()) * estimated.get(mode, 0) for mode, row in confusion.items()) / (
+        scored * scored
+    )
+    accuracy = hits / scored
+    if accuracy >= chance:
         return None
+    kappa = (accuracy - chance) / (1.0 - chance)
     return (
-        f"mode accuracy {100 * accuracy:.1f} % is below the {100 * share:.1f} % that always "
-        f"answering the most frequent true mode {frequent!r} scores on these {scored:,} "
-        "samples: the estimated modes tell less about the true ones than that constant "
-        "answer does"
+        f"mode accuracy {100 * accuracy:.1f} % is below chance: estimated modes drawn "
+        f"independently of the true ones, with the same frequencies, would agree on "
+        f"{100 * chance:.1f} % of these {scored:,} samples (Cohen's kappa {kappa:.2f}); the "
+        "estimated modes are anti-correlated with the true ones"
     )
 
 
 def chance_level_warning(report: Report) -> str | None:
-    """The warning that the joint mode accuracy is below the majority share, or ``None``.
+    """The warning that the joint mode accuracy is below chance, or ``None``.
 
-    ``None`` without a true mode, an accuracy or a confusion table (a ``[components]``
-    model's per-component tables are its components', not the joint one's).
+    ``None`` without a true mode or a confusion table (a ``[components]`` model's
+    per-component tables are its components', not the joint one's).
     """
     modes = report.modes
     if modes.accuracy is None or not modes.confusion or modes.components:
         return None
-    counts = {mode: sum(row.values()) for mode, row in modes.confusion.items()}
-    below = below_majority(modes.accuracy, counts)
+    below = below_chance(modes.confusion)
     return None if below is None else f"{WARNING_PREFIX}{below}"
