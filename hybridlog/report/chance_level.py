@@ -47,12 +47,10 @@ def below_chance(confusion: Mapping[str, Mapping[str, int]]) -> str | None:
     for row in confusion.values():
         for mode, count in row.items():
             estimated[mode] = estimated.get(mode, 0) + count
-    chance = sum(sum(row.values()) * estimated.get(mode, 0) for mode, row in confusion.items()) / (
-        scored * scored
-    )
-    accuracy = hits / scored
-    if accuracy >= chance:
+    agree = sum(sum(row.values()) * estimated.get(mode, 0) for mode, row in confusion.items())
+    if hits * scored >= agree:  # compared exactly, in integers
         return None
+    chance, accuracy = agree / (scored * scored), hits / scored
     kappa = (accuracy - chance) / (1.0 - chance)
     return (
         f"mode accuracy {100 * accuracy:.1f} % is below chance: estimated modes drawn "
