@@ -25,8 +25,10 @@ Written by ``hybridlog cluster`` and read for the ``chiu`` and ``kmeans`` estima
       "reading": {"format": "csv", "time": "log", ...}   # what reading the log did
     }
 
-``model_key`` is the content key of the model the centres were fitted for
-(:func:`hybridlog.model.compiled.model_key`: its equations, parameters, noise and names):
+``model_key`` is the content key of the plant the centres were fitted for
+(:func:`hybridlog.model.compiled.plant_key`: its equations, parameters, noise and names, not
+the input ``[simulation.inputs]`` drove a simulated log with; a file written before holds
+:func:`~hybridlog.model.compiled.model_key`, which includes that input, and is accepted too):
 the clusters are labelled as modes by how well each mode's equations predict the log, and
 the switched observer then runs those equations, so centres of a model whose equations were
 edited since (two modes' dynamics swapped) would be used with the wrong labels.  A file

@@ -389,7 +389,7 @@ def check_centers(
             f"centers={source}: model: the centres were fitted for {fitted}, not "
             f"{model.name!r}; fit them for this model with hybridlog cluster"
         )
-    from hybridlog.model.compiled import model_key
+    from hybridlog.model.compiled import model_key, plant_key
 
     if centers.dt is not None and centers.dt != model.dt:
         raise OptionError(
@@ -403,7 +403,12 @@ def check_centers(
     entry = centers.entry(options.algorithm, names, lags, model.mode_ids, source, origins)
     # after what can be named (dt, modes, regressors: a renamed output said only "another
     # version of model"): the key says that something else of the model differs
-    if centers.model_key is not None and centers.model_key != model_key(model):
+    # plant_key: the simulation's input is no part of what labels the clusters; a file
+    # written before recorded model_key, which holds it
+    if centers.model_key is not None and centers.model_key not in (
+        plant_key(model),
+        model_key(model),
+    ):
         raise OptionError(
             f"centers={source}: model_key: the centres were fitted for another version of "
             f"model {model.name!r} (its equations, parameters, noise or names differ from "

@@ -52,7 +52,7 @@ from hybridlog.jobs import arguments
 from hybridlog.jobs.cluster_plot import plot_clusters
 from hybridlog.jobs.estimation import input_paths, read_log
 from hybridlog.model.cache import load_model
-from hybridlog.model.compiled import model_key
+from hybridlog.model.compiled import plant_key
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import (
     PathLike,
@@ -62,6 +62,7 @@ from hybridlog.outputs import (
     check_file_name,
     check_file_target,
 )
+from hybridlog.report.chance_level import below_chance
 from hybridlog.report.coverage import samples_coverage
 from hybridlog.report.few_samples import FEW_SAMPLES
 from hybridlog.report.markdown import WARNING_PREFIX, plural
@@ -191,6 +192,39 @@ def _accuracy_words(accuracy: dict[str, float | None], over: str | None) -> str 
         + ", ".join(said)
         + (f" over {over}" if over else "")
     )
+
+
+def _below_chance(
+    fitted: dict[str, ModeClassifier], model: HybridModel, signals: AlignedSignals
+) -> list[str]:
+    """A warning per algorithm whose decision rule's mode accuracy is below chance.
+
+    As ``analyze`` warns of its report's (:mod:`hybridlog.report.chance_level`): ``cluster``
+    printed ``kmeans: mode accuracy of the decision rule on this log 0.2827`` where modes
+    drawn independently of the true ones would agree on 49 %, and wrote the centres,
+    without a word.  Over the samples :func:`_accuracy` scores.
+    """
+    if signals.truth_modes is None:
+        return []
+    known = signals.truth_modes != NO_TRUE_MODE
+    truth = signals.truth_modes[known]
+    said = []
+    for name, classifier in fitted.items():
+        if classifier.cluster_modes is None:
+            continue
+        decided = classifier.cluster_modes[classifier.decide(signals.measured_outputs())][known]
+        confusion = {
+            model.mode_ids[t]: {
+                model.mode_ids[e]: int(np.count_nonzero((truth == t) & (decided == e)))
+                for e in range(model.n_modes)
+            }
+            for t in range(model.n_modes)
+        }
+        below = below_chance(confusion)
+        if below is not None:
+            rule = below.replace("mode accuracy", "the decision rule's mode accuracy", 1)
+            said.append(f"warning: {name}: {rule}")
+    return said
 
 
 def few_vectors_warning(vectors: int, scored: int | None) -> str | None:
@@ -612,7 +646,7 @@ def discover_modes(
     few = few_vectors_warning(int(np.count_nonzero(fitted_on)), scored)
     content: dict[str, Any] = {
         "model": model.name,
-        "model_key": model_key(model),
+        "model_key": plant_key(model),
         "dt": model.dt,
         "log": as_text(log),
         "mode_ids": list(model.mode_ids),
@@ -694,6 +728,9 @@ def discover_modes(
     alerts, read_notes = reading_said(reading, _left_out(signals, fitted.spec))
     if few is not None:
         alerts.append(f"warning: {few.removeprefix(WARNING_PREFIX)}")
+    alerts += _below_chance(
+        {"chiu": fitted} | ({} if baseline is None else {"kmeans": baseline}), model, signals
+    )
     notes += [*fitted.notes, *fitted.labelling, *read_notes]
     if baseline is not None:
         compared = [*baseline.notes, *baseline.labelling]

@@ -150,8 +150,11 @@ def _sympy_text(expression: Any) -> str:
     return "sympy:" + "".join(parts) + ";"
 
 
-def _feed(digest: Any, value: object) -> None:
-    """Feed a canonical, type-tagged serialisation of ``value`` into ``digest``."""
+def _feed(digest: Any, value: object, left_out: frozenset[str] = RUNTIME_FIELDS) -> None:
+    """Feed a canonical, type-tagged serialisation of ``value`` into ``digest``.
+
+    A dataclass's fields named in ``left_out`` are not fed (at any depth).
+    """
     import sympy
 
     if value is None or isinstance(value, bool | int | float | str):
@@ -165,25 +168,25 @@ def _feed(digest: Any, value: object) -> None:
     elif dataclasses.is_dataclass(value) and not isinstance(value, type):
         digest.update(f"{type(value).__qualname__}(".encode())
         for item in dataclasses.fields(value):
-            if item.name not in RUNTIME_FIELDS:
+            if item.name not in left_out:
                 digest.update(f"{item.name}=".encode())
-                _feed(digest, getattr(value, item.name))
+                _feed(digest, getattr(value, item.name), left_out)
         digest.update(b")")
     elif isinstance(value, Mapping):
         digest.update(b"{")
         for name in sorted(value, key=str):
-            _feed(digest, name)
-            _feed(digest, value[name])
+            _feed(digest, name, left_out)
+            _feed(digest, value[name], left_out)
         digest.update(b"}")
     elif isinstance(value, frozenset | set):  # e.g. the names an equation uses
         digest.update(b"<")
         for item in sorted(value, key=repr):
-            _feed(digest, item)
+            _feed(digest, item, left_out)
         digest.update(b">")
     elif isinstance(value, tuple | list):
         digest.update(b"[")
         for item in value:
-            _feed(digest, item)
+            _feed(digest, item, left_out)
         digest.update(b"]")
     else:
         # An object without a canonical form could give a different key in every process.
@@ -206,6 +209,25 @@ def model_key(model: HybridModel) -> str:
     key = digest.hexdigest()
     remember_key(model, key)
     return key
+
+
+SCENARIO_FIELDS = frozenset({"simulation_inputs", "scenario"})
+"""Model fields only ``simulate`` reads (its inputs, a components model's scenario): in
+:func:`model_key` (the compiled code holds the inputs), not in :func:`plant_key`."""
+
+
+def plant_key(model: HybridModel) -> str:
+    """Hash of the plant the estimators see: :func:`model_key`'s content but the simulation's.
+
+    ``centers.json`` records it (:mod:`hybridlog.cluster.centers_file`): the clusters'
+    labels depend on the modes' equations, noise and names, not on the input ``simulate``
+    drove a log with.  Centres fitted with a copy of ``double_cart_case2`` whose only edit
+    was ``[simulation.inputs] u`` were refused on the built-in model as "another version
+    ... (its equations, parameters, noise or names differ)", which none did.
+    """
+    digest = hashlib.sha256()
+    _feed(digest, model, RUNTIME_FIELDS | SCENARIO_FIELDS)
+    return digest.hexdigest()
 
 
 _FINGERPRINTS: dict[tuple[str, ...], str] = {}

@@ -25,6 +25,7 @@ from hybridlog.errors import LogError
 from hybridlog.estimators.consistency import ConsistencyAccumulator
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.report import metrics, state_error
+from hybridlog.report.chance_level import chance_level_warning
 from hybridlog.report.document import Report
 from hybridlog.report.few_samples import few_samples_warning
 from hybridlog.report.markdown import plural
@@ -387,9 +388,9 @@ class ReportBuilder:
             )
         elif self._consistency is not None and (why := self._consistency.untested()):
             report = dataclasses.replace(report, notes=(*report.notes, why))
-        few = few_samples_warning(report)
-        if few is not None:
-            report = dataclasses.replace(report, notes=(*report.notes, few))
+        for warning in (chance_level_warning(report), few_samples_warning(report)):
+            if warning is not None:
+                report = dataclasses.replace(report, notes=(*report.notes, warning))
         if extra:
             report = report.with_extra(_json_object(extra), source=self._log)
         return report

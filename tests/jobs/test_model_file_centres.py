@@ -190,3 +190,50 @@ def test_loaded_centres_refuse_a_given_default_and_name_the_file_as_the_origin(t
         r"0,2\): set the same$",
     ):
         estimator_inputs(prepare(load_model(mine), "chiu"), load_model(mine))
+
+
+def test_centres_fitted_with_another_simulation_input_fit_the_same_plant(tmp_path):
+    """Centres fitted with a copy whose only edit was ``[simulation.inputs] u`` were refused.
+
+    The built-in model refused them as "another version of model 'double_cart_case1' (its
+    equations, parameters, noise or names differ)", which none did: the key the file
+    recorded held the simulation's input, which labels no cluster.  The edited equations
+    are still refused, and a file that records the old key (input included) still loads.
+    """
+    from hybridlog.model.compiled import model_key
+
+    text = builtin_source("double_cart_case1")
+    edited = tmp_path / "square.toml"
+    edited.write_text(text.replace('u = "sin(0.3*t)"', 'u = "sign(sin(0.3*t))"'))
+    centres = tmp_path / "c.json"
+    discover_modes(LOG, edited, out=centres)
+    analyze(
+        LOG,
+        "double_cart_case1",
+        estimator="chiu",
+        sets=[f"centers={centres}"],
+        out_dir=tmp_path / "builtin",
+    )
+    assert (tmp_path / "builtin" / "report.json").exists()
+    content = json.loads(centres.read_text())
+    content["model_key"] = model_key(load_model("double_cart_case1"))
+    centres.write_text(json.dumps(content))
+    analyze(
+        LOG,
+        "double_cart_case1",
+        estimator="chiu",
+        sets=[f"centers={centres}"],
+        out_dir=tmp_path / "old",
+    )
+    damped = text.replace("[0.342, 0.09981, -0.3598, 0.5203]", "[0.342, 0.09981, -0.3598, 0.6]")
+    assert damped != text
+    edited.write_text(damped)
+    discover_modes(LOG, edited, out=tmp_path / "c2.json")
+    with pytest.raises(OptionError, match=r"c2.json: model_key: .* another version of model"):
+        analyze(
+            LOG,
+            "double_cart_case1",
+            estimator="chiu",
+            sets=[f"centers={tmp_path / 'c2.json'}"],
+            out_dir=tmp_path / "no",
+        )
