@@ -122,24 +122,62 @@ where no smoother ran).  For an estimator not smoothed the filter's own mode acc
 estimates, like for like, were in two columns)."""
 
 
-def _smoothing_columns(state_columns: Sequence[str]) -> tuple[str, ...]:
-    """:data:`_SMOOTHING_COLUMNS`, a ``filtered_state_rmse.<x>`` per state shown among them.
+def _component_columns(reports: Mapping[str, Report]) -> tuple[str, ...]:
+    """``mode_accuracy.<c>`` for each component some report scored (its true mode in the log).
 
-    After ``filtered_mode_accuracy``, named as batch's summary.csv names them.
+    Shown, each beside ``filtered_mode_accuracy.<c>``, when an estimator's estimates were
+    smoothed, as batch's summary.csv shows them (:func:`~hybridlog.report.summary_offline.
+    offline_metrics`): the joint accuracy of a ``[components]`` model hides most of a gain.
+    """
+    components = dict.fromkeys(
+        c
+        for report in reports.values()
+        for c, component in report.modes.components.items()
+        if component.accuracy is not None
+    )
+    return tuple(f"mode_accuracy.{c}" for c in components)
+
+
+def _filtered_component_accuracy(report: Report, column: str) -> float | None:
+    """The filter's own accuracy of a ``mode_accuracy.<c>`` column: the smoothed run's filter's."""
+    component = column.removeprefix("mode_accuracy.")
+    if report.smoothing is None:
+        own = report.modes.components.get(component)
+        return None if own is None else own.accuracy
+    side = report.smoothing.filtered.components.get(component)
+    return None if side is None else side.mode_accuracy
+
+
+def _smoothing_columns(
+    state_columns: Sequence[str], component_columns: Sequence[str] = ()
+) -> tuple[str, ...]:
+    """:data:`_SMOOTHING_COLUMNS`, with the components' and the states' pairs among them.
+
+    After ``filtered_mode_accuracy``: ``mode_accuracy.<c>`` and ``filtered_mode_accuracy.<c>``
+    per component, then a ``filtered_state_rmse.<x>`` per state shown; named as batch's
+    summary.csv names them.
     """
     smoother, filtered, fallbacks = _SMOOTHING_COLUMNS
-    return (smoother, filtered, *(f"filtered_{c}" for c in state_columns), fallbacks)
+    pairs = [name for c in component_columns for name in (c, f"filtered_{c}")]
+    return (smoother, filtered, *pairs, *(f"filtered_{c}" for c in state_columns), fallbacks)
 
 
-def _smoothing_cells(report: Report, state_columns: Sequence[str]) -> list[Any]:
+def _smoothing_cells(
+    report: Report, state_columns: Sequence[str], component_columns: Sequence[str] = ()
+) -> list[Any]:
     smoothing = report.smoothing
+    pairs = [
+        cell
+        for c in component_columns
+        for cell in (metric(report, c), _filtered_component_accuracy(report, c))
+    ]
     filtered_states = [_filtered_state_rmse(report, column) for column in state_columns]
     if smoothing is None:
-        return ["none", report.modes.accuracy, *filtered_states, None]
+        return ["none", report.modes.accuracy, *pairs, *filtered_states, None]
     name = ", ".join(n for n in (smoothing.method, smoothing.mode_sequence) if n)
     fallbacks = smoothing.fallbacks
     weight = None if fallbacks is None else fallbacks.weight
-    return [name, smoothing.filtered.mode_accuracy, *filtered_states, weight]
+    return [name, smoothing.filtered.mode_accuracy, *pairs, *filtered_states, weight]
 
 
 RUN_FAILURES: tuple[type[HybridlogError], ...] = (DivergenceError,)
@@ -368,7 +406,8 @@ def _comparison_rows(
     metrics = (*scores, *states, speed)  # the states' RMSEs beside the other scores
     columns: tuple[str, ...] = ("estimator", *metrics)
     smoothed = any(report.smoothing is not None for report in reports.values())
-    smoothing_columns = _smoothing_columns(states) if smoothed else ()
+    components = _component_columns(reports) if smoothed else ()
+    smoothing_columns = _smoothing_columns(states, components) if smoothed else ()
     # each estimator's value of a gated metric not shown yet (state_rmse.x1), as batch's
     # summaries show it: 'pass (1)' alone did not say by how much (a gated
     # smoothing_fallback_weight is shown once, among the smoothing columns)
@@ -390,7 +429,7 @@ def _comparison_rows(
             own = sample_counts(report, _rmse_states((*states, *extra)))
             row += [own.get(column) for column in counts]
             if smoothed:
-                row += _smoothing_cells(report, states)
+                row += _smoothing_cells(report, states, components)
             row += [metric(report, column) for column in extra]
         if gates:  # which estimator missed which gate, as a batch's summary shows per log
             row.append("not analysed" if report is None else gate_cell(len(gates), missed[name]))

@@ -207,3 +207,45 @@ def test_a_smoothed_estimators_na_filtered_state_gives_its_reason() -> None:
         f"{null_reason(smoothed, 'mode_accuracy')}",
         "- `smoothed` filtered_state_rmse.x1: the filter's own: no true x1 in the log",
     ]  # the filter's cells are its own metrics', whose reasons are given on their lines
+
+
+def test_an_offline_pass_on_a_components_model_shows_each_components_two_sides(
+    cpha: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """The joint accuracy hides most of a gain (docs/smoothing.md): batch's summary.csv gives
+    ``mode_accuracy.<c>`` and ``filtered_mode_accuracy.<c>`` per component; compare's table
+    gave the joint pair alone, and a gate on ``mode_accuracy.A2`` added the offline column
+    without the filter's beside it."""
+    model, log = cpha
+    out = tmp_path / "cmp"
+    outcome = compare(
+        log,
+        model,
+        ["imm", "unknown-mode"],
+        out_dir=out,
+        mode_sequence="kbest",
+        fail_under=["mode_accuracy.A2=0.5"],
+    )
+    rows = _rows(out / "comparison.csv")
+    columns = list(rows["imm"])
+    for c in ("A1", "A2", "A3"):
+        assert columns.count(f"mode_accuracy.{c}") == 1
+        assert columns.index(f"filtered_mode_accuracy.{c}") == (
+            columns.index(f"mode_accuracy.{c}") + 1
+        )
+    for name, row in rows.items():
+        report = outcome.reports[name]
+        assert report.smoothing is not None
+        for c, side in report.smoothing.filtered.components.items():
+            assert float(row[f"mode_accuracy.{c}"]) == report.modes.components[c].accuracy
+            assert float(row[f"filtered_mode_accuracy.{c}"]) == side.mode_accuracy
+    # the estimates differ from the filter's on some component, or this tests nothing
+    assert any(
+        row[f"mode_accuracy.{c}"] != row[f"filtered_mode_accuracy.{c}"]
+        for row in rows.values()
+        for c in ("A1", "A2", "A3")
+    )
+    # without an offline pass the table is as it was: no component column
+    plain = tmp_path / "plain"
+    compare(log, model, ["imm", "unknown-mode"], out_dir=plain)
+    assert not any(".A" in column for column in _rows(plain / "comparison.csv")["imm"])
