@@ -211,19 +211,29 @@ def model_key(model: HybridModel) -> str:
     return key
 
 
-SCENARIO_FIELDS = frozenset({"simulation_inputs", "scenario"})
-"""Model fields only ``simulate`` reads (its inputs, a components model's scenario): in
-:func:`model_key` (the compiled code holds the inputs), not in :func:`plant_key`."""
+SCENARIO_FIELDS = frozenset(
+    {
+        "simulation_inputs",
+        "simulation_state",
+        "simulation_schedule",
+        "simulation_state_min",
+        "scenario",
+    }
+)
+"""Model fields only ``simulate`` reads (the ``[simulation]`` table: its inputs, true initial
+state, schedule and clamp; a components model's scenario): in :func:`model_key` (the
+compiled code holds the inputs), not in :func:`plant_key`."""
 
 
 def plant_key(model: HybridModel) -> str:
-    """Hash of the plant the estimators see: :func:`model_key`'s content but the simulation's.
+    """Hash of the plant the estimators see: :func:`model_key`'s content but ``[simulation]``.
 
     ``centers.json`` records it (:mod:`hybridlog.cluster.centers_file`): the clusters'
     labels depend on the modes' equations, noise and names, not on the input ``simulate``
-    drove a log with.  Centres fitted with a copy of ``double_cart_case2`` whose only edit
-    was ``[simulation.inputs] u`` were refused on the built-in model as "another version
-    ... (its equations, parameters, noise or names differ)", which none did.
+    drove a log with (nor its true initial state, schedule or clamp).  Centres fitted with a
+    copy of ``double_cart_case2`` whose only edit was ``[simulation.inputs] u`` were refused
+    on the built-in model as "another version ... (its equations, parameters, noise or
+    names differ)", which none did.
     """
     digest = hashlib.sha256()
     _feed(digest, model, RUNTIME_FIELDS | SCENARIO_FIELDS)

@@ -193,7 +193,7 @@ def test_loaded_centres_refuse_a_given_default_and_name_the_file_as_the_origin(t
 
 
 def test_centres_fitted_with_another_simulation_input_fit_the_same_plant(tmp_path):
-    """Centres fitted with a copy whose only edit was ``[simulation.inputs] u`` were refused.
+    """Centres fitted with a copy whose only edits were in ``[simulation]`` were refused.
 
     The built-in model refused them as "another version of model 'double_cart_case1' (its
     equations, parameters, noise or names differ)", which none did: the key the file
@@ -204,7 +204,11 @@ def test_centres_fitted_with_another_simulation_input_fit_the_same_plant(tmp_pat
 
     text = builtin_source("double_cart_case1")
     edited = tmp_path / "square.toml"
-    edited.write_text(text.replace('u = "sin(0.3*t)"', 'u = "sign(sin(0.3*t))"'))
+    # another simulated input and true initial state: [simulation] only, which simulate reads
+    square = text.replace('u = "sin(0.3*t)"', 'u = "sign(sin(0.3*t))"')
+    square = square.replace("state = [0.5, 0.0, -0.5, 0.0]", "state = [0.2, 0.0, -0.1, 0.0]")
+    assert square.count("sign(") == 1 and "[0.2, 0.0, -0.1, 0.0]" in square
+    edited.write_text(square)
     centres = tmp_path / "c.json"
     discover_modes(LOG, edited, out=centres)
     analyze(
