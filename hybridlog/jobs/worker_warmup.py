@@ -28,13 +28,15 @@ MODULES = (
     "hybridlog.estimators.hstf",
     "hybridlog.estimators.imm",
     "hybridlog.io.load",
-    "hybridlog.jobs.batch",
+    "hybridlog.jobs.batch_task",
     "hybridlog.model.cache",
     "hybridlog.report.build",
 )
 """What a batch worker's first log imports, less what imports polars: the model loader, the
 filters and their compiled loops' machinery, reading and aligning, the report's contents,
-the batch job itself (whose module imports no polars: its batch process has none)."""
+the task of a log (which imports no polars: the batch process imports it too).  Not
+:mod:`hybridlog.jobs.batch`, whose planning, summaries and JUnit modules only the batch
+process runs (0.01 s of the warm-up, which every batch of ``--jobs N`` waits for)."""
 
 # Ctrl-C reaches every process of the terminal's group; the batch process decides and stops
 # its workers (hybridlog.jobs.workers).  Blocked, not only ignored: a library imported

@@ -36,6 +36,8 @@ def _facts(_: int) -> dict[str, Any]:
         "warmup": WARMUP in sys.modules,
         "polars": "polars" in sys.modules,
         "numba": "numba" in sys.modules,
+        "task": "hybridlog.jobs.batch_task" in sys.modules,  # a batch's, analysing a log
+        "planning": "hybridlog.jobs.batch_plan" in sys.modules,  # the batch process's only
         "forkserver_threads": len(os.listdir(f"/proc/{os.getppid()}/task")),
         "variable": os.environ.get("HYBRIDLOG_TEST_VARIABLE"),
         "cwd": os.getcwd(),
@@ -64,8 +66,8 @@ def test_workers_start_warm_from_a_single_threaded_forkserver_without_polars() -
     assert len({r["pid"] for r in results}) == 2
     assert len({r["forkserver"] for r in results}) == 1
     for facts in results:
-        assert facts["warmup"] and facts["numba"] and facts["cpu_target"]
-        assert not facts["polars"]
+        assert facts["warmup"] and facts["numba"] and facts["cpu_target"] and facts["task"]
+        assert not facts["polars"] and not facts["planning"]
         # OpenBLAS's pools (numpy's and scipy's) stop before each fork and are not restarted
         assert facts["forkserver_threads"] == 1
 
