@@ -638,13 +638,15 @@ class WorkerPool:
     def __exit__(self, kind: object, error: object, trace: object) -> None:
         with _held(raised_after=kind is None):
             if kind is not None:  # the caller failed: nothing the workers do is wanted
-                _end(self._leaving + self._workers)
+                _end(self._workers)
             else:
                 for worker in self._workers:  # all told first, so that they stop side by side
                     with contextlib.suppress(OSError, ValueError):
                         worker.connection.send(None)
-                for worker in self._leaving + self._workers:
-                    _stop(worker)
+            # those let go had no task and were told to stop: joined, never signalled by
+            # process id (they may have ended long ago, and their ids been given to others)
+            for worker in self._leaving + ([] if kind is not None else self._workers):
+                _stop(worker)
             self._workers = []
             self._leaving = []
             self._lifeline_writer.close()
