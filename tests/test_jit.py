@@ -47,6 +47,18 @@ def test_set_up_skips_the_blas_probe_and_blas_kernels_still_compile() -> None:
     assert done.stdout.split() == ["False", "True", "5.0"]
 
 
+def test_set_up_compiles_nothing() -> None:
+    # a batch's workers wait for it in their forkserver: compiling a one-line function
+    # there took 0.03 s, which loading the filters' cached code did not need
+    from numba.core import event
+    from numba.core.registry import cpu_target
+
+    with event.install_recorder("numba:compile") as compiled:
+        jit.set_up()
+    assert compiled.buffer == []
+    assert "_toplevel_target_context" in vars(cpu_target)  # the contexts kept, set up
+
+
 CALLER = """
 import sys
 from pathlib import Path

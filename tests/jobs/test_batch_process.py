@@ -5,10 +5,12 @@ tables.  So it imports neither polars nor numba (each import costs a core the wo
 The console script starts the forkserver before the CLI is imported when the command line
 asks for local workers (:mod:`hybridlog.launch`), and stops it when the process ends, so a
 command that failed early never keeps a caller reading its output waiting for the warm-up.
+It makes the summary plot's figure ahead, while it waits, without the garbage collector.
 """
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import subprocess
@@ -19,6 +21,7 @@ from pathlib import Path
 import pytest
 
 from hybridlog.environment import usable_cores
+from hybridlog.jobs import batch
 from hybridlog.launch import local_batch_jobs
 from tests.jobs.test_batch import write_logs
 
@@ -123,3 +126,19 @@ def test_a_failed_command_does_not_wait_for_its_forkservers_warm_up(tmp_path: Pa
     assert done.returncode == 2, done.stderr
     assert done.stderr.startswith("hybridlog: error: "), done.stderr
     assert len(done.stderr.splitlines()) == 1, done.stderr
+
+
+def test_the_summary_plot_is_made_ahead_without_the_collector(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # matplotlib's import and the figure, while the forkserver warms up on the other core:
+    # the collector's passes over their objects made it outlast the warm-up
+    from hybridlog.report import summary_plot
+
+    seen: list[bool] = []
+    monkeypatch.setattr(
+        summary_plot, "prepare_summary_figure", lambda n: seen.append(gc.isenabled())
+    )
+    batch._prepare_summary_plot(3)
+    assert seen == [False]
+    assert gc.isenabled()  # on again once it is made
