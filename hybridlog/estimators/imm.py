@@ -71,6 +71,7 @@ from hybridlog.estimators.mode_pairs import (
     pair_transitions,
     runs_on_pairs,
 )
+from hybridlog.estimators.offline_options import OFFLINE_OPTIONS
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult
 from hybridlog.estimators.unrolled import (
@@ -451,11 +452,6 @@ def _checked_as(filtered: _Filtered) -> CheckedAs | None:
     return CheckedAs(filtered.paired, partial(_read_back, filtered=filtered, argmax=True))
 
 
-OFFLINE_OPTIONS = ("smooth", "smoother", "mode_sequence", "beam")
-"""The options of the offline passes after the filter; the forward pass's run depends on none
-(``smoother`` changes only which per-mode estimates it records), so its errors name none."""
-
-
 def _offline(options: ImmOptions) -> bool:
     """Whether an offline pass follows the filter (``smooth``, a ``mode_sequence`` to decode)."""
     return options.smooth or options.mode_sequence != "argmax"
@@ -488,7 +484,8 @@ def run_imm(
     :func:`generate_imm_source` for small models, else the generic :func:`_imm_steps`.
     A ``[components]`` model runs on its enumerated joint known modes
     (:func:`~hybridlog.estimators.cpha.joint.joint_mode_model`).  An error of the forward
-    pass does not blame :data:`OFFLINE_OPTIONS` (:func:`~hybridlog.errors.independent_of`).
+    pass does not blame the offline passes' options (``offline_options.OFFLINE_OPTIONS``,
+    :func:`~hybridlog.errors.independent_of`).
     """
     ran = _filtered_model(model, options)
     model, transitions, used = ran.model, ran.transitions, ran.used

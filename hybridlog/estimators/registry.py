@@ -41,6 +41,7 @@ from hybridlog.estimators.capabilities import (
     runs_on_pairs,
 )
 from hybridlog.estimators.footprint import MODE_BYTES, REPORT_FACTOR, Parts, result_bytes
+from hybridlog.estimators.offline_options import OFFLINE_OPTIONS, admits, not_offered
 from hybridlog.estimators.options import (
     OptionInfo,
     OptionSource,
@@ -463,6 +464,10 @@ def resolve_estimator(
         if table not in ESTIMATORS:
             raise ModelError(f"{origin}: estimators.{table}: {_unknown(table, ESTIMATORS)}")
         sources = {k: OptionSource.model_file(origin, table, k) for k in values}
+        for key, value in values.items():
+            if key in OFFLINE_OPTIONS and not admits(ESTIMATORS[table], key):
+                why = not_offered(ESTIMATORS[table], key, value, ESTIMATORS.values())
+                raise ModelError(f"{sources[key].label}: estimator '{table}' {why}")
         check_table(
             ESTIMATORS[table].options_type, values, estimator=table, sources=sources, model=model
         )

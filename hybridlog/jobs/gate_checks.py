@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from hybridlog.estimators import Prepared
-from hybridlog.jobs.overrides import MODE_SEQUENCE_OPTION, SMOOTH_OPTION
+from hybridlog.estimators.offline_options import MODE_SEQUENCE_OPTION, SMOOTH_OPTION
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.report import parse_gates, validate_gates
 from hybridlog.report.gates import Gate

@@ -24,6 +24,15 @@ from hybridlog.estimators import (
     refuse_unrunnable,
     resolve_estimator,
 )
+from hybridlog.estimators.offline_options import (
+    MODE_SEQUENCE_OPTION,
+    OFFLINE_OPTIONS,
+    SMOOTH_OPTION,
+    admits,
+    choices,
+    not_offered,
+    offers,
+)
 from hybridlog.estimators.options import closest
 from hybridlog.jobs.arguments import set_texts
 from hybridlog.model.cache import load_model, load_model_set
@@ -69,39 +78,6 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
     )
 
 
-SMOOTH_OPTION = "smooth"
-"""The estimator option ``--smooth`` sets (``smooth = true`` under ``[estimators.<name>]``)."""
-
-
-MODE_SEQUENCE_OPTION = "mode_sequence"
-"""The estimator option ``--mode-sequence`` sets (``argmax``, ``viterbi`` or ``kbest``)."""
-
-
-OFFLINE_OPTIONS = (SMOOTH_OPTION, MODE_SEQUENCE_OPTION, "beam", "smoother")
-"""The options of the offline passes (``docs/smoothing.md``): ``--set`` of one that no chosen
-estimator has is refused as ``--smooth`` is, with the reason (:func:`_not_offered`)."""
-
-
-def _admits(estimator: Estimator, option: str) -> bool:
-    """Whether the estimator has the option (and, for ``smooth``, declares a smoother)."""
-    names = {info.name for info in estimator.describe_options()}
-    if option == SMOOTH_OPTION:
-        return estimator.capabilities.supports_smoothing and option in names
-    return option in names
-
-
-def _choices(estimator: Estimator, option: str) -> list[str]:
-    """The values an estimator's option of a ``Literal`` type takes."""
-    return next(i.type for i in estimator.describe_options() if i.name == option).split("|")
-
-
-def _offers(estimator: Estimator, option: str, value: str) -> bool:
-    """Whether the estimator has the option and, for ``mode_sequence``, that value of it."""
-    if not _admits(estimator, option):
-        return False
-    return option != MODE_SEQUENCE_OPTION or value in _choices(estimator, option)
-
-
 def smoothing_overrides(
     chosen: Sequence[Estimator],
     overrides: Overrides,
@@ -136,16 +112,16 @@ def smoothing_overrides(
                 "give one of them"
             )
         for estimator in chosen:
-            if not _admits(estimator, option):
+            if not admits(estimator, option):
                 hint = ""
                 if len(chosen) > 1:
                     hint = f"; --set {option}={value} applies it only to the estimators that do"
                 said = flag if option == SMOOTH_OPTION else f"{flag} {value}"
                 raise _not_offered(said, estimator, option, value, given_by, hint)
-            if not _offers(estimator, option, value):
+            if not offers(estimator, option, value):
                 raise OptionError(
                     f"{flag} {value}: estimator '{estimator.name}' offers "
-                    f"{', '.join(_choices(estimator, option))}"
+                    f"{', '.join(choices(estimator, option))}"
                     f"{_only_some(chosen, option, value)}"
                 )
         options[option] = value
@@ -159,7 +135,7 @@ def _only_some(chosen: Sequence[Estimator], option: str, value: str) -> str:
     ``--set`` gives it to every estimator with the option, and one that has the option but
     not the value refuses it; a model file's ``[estimators.<name>]`` table gives it to one.
     """
-    offering = [e.name for e in chosen if _offers(e, option, value)]
+    offering = [e.name for e in chosen if offers(e, option, value)]
     if len(chosen) < 2 or not offering:
         return ""
     return (
@@ -172,21 +148,9 @@ def _only_some(chosen: Sequence[Estimator], option: str, value: str) -> str:
 def _not_offered(
     flag: str, estimator: Estimator, option: str, value: object, given_by: str, hint: str = ""
 ) -> OptionError:
-    """One line: ``flag`` sets ``option``, which ``estimator`` lacks; why, and who offers it.
-
-    Those who offer it have the option and, for ``mode_sequence``, ``value`` among its values.
-    The reason answers the value: ``mode_sequence = "argmax"`` asks for no offline pass, so
-    its refusal says how the estimator decides its modes instead (``Capabilities.mode_rule``,
-    hstf's threshold rule), the others why it has no offline pass (``no_smoothing``).
-    """
-    having = [e.name for e in ESTIMATORS.values() if _offers(e, option, str(value))]
-    capabilities = estimator.capabilities
-    argmax = option == MODE_SEQUENCE_OPTION and str(value) == "argmax"
-    why = capabilities.mode_rule if argmax else capabilities.no_smoothing
-    return OptionError(
-        f"{flag}: estimator '{estimator.name}' ({given_by}) does not offer it"
-        f"{': ' + why if why else ''} (estimators that do: {', '.join(having) or 'none'}){hint}"
-    )
+    """One line: ``flag`` sets ``option``, which ``estimator`` lacks; why, and who offers it."""
+    why = not_offered(estimator, option, value, ESTIMATORS.values())
+    return OptionError(f"{flag}: estimator '{estimator.name}' ({given_by}) {why}{hint}")
 
 
 def prepare_estimators(

@@ -19,6 +19,7 @@ import pytest
 from hybridlog.errors import HybridlogError, LogError, ModelError, OptionError
 from hybridlog.estimators import ESTIMATORS, Capabilities, Estimator, get_estimator, prepare
 from hybridlog.estimators.capabilities import ModelTraits
+from hybridlog.estimators.offline_options import admits, not_offered
 from hybridlog.estimators.options import option, options_dict
 from hybridlog.estimators.result import EstimationResult, ResultShapeError
 from hybridlog.jobs.analysis import analyze
@@ -290,7 +291,7 @@ def test_unknown_estimator_tables_and_names(tmp_path):
     # and so are their values (transition_stay = 7 under imm passed when hstf ran)
     hstf_smooth = TANK_TEXT.replace("[estimators.hstf]", "[estimators.hstf]\nsmooth = true")
     for text, error in (
-        (hstf_smooth, r"estimators\.hstf\.smooth: hstf has no option 'smooth' \(options: rho"),
+        (hstf_smooth, r"estimators\.hstf\.smooth: estimator 'hstf' does not offer it: under"),
         (f"{TANK_TEXT}\n[estimators.imm]\nsmoth = true\n", r"estimators\.imm\.smoth: .*'smooth'"),
     ):
         path.write_text(text)
@@ -304,6 +305,32 @@ def test_unknown_estimator_tables_and_names(tmp_path):
             prepare(load_model(path), chosen, sets)
     with pytest.raises(OptionError, match=r"^--estimator: unknown estimator 'im' .*mean 'imm'"):
         get_estimator("im")
+
+
+@pytest.mark.parametrize(
+    ("table", "key", "value"),
+    [
+        (name, key, value)
+        for name, estimator in ESTIMATORS.items()
+        for key, value in (("smooth", "true"), ("mode_sequence", '"viterbi"'), ("beam", "5"))
+        if not admits(estimator, key)
+    ],
+)
+def test_offline_key_in_a_table_says_why_as_set_does(tmp_path, table, key, value):
+    """An offline pass's key under an estimator without one is refused with the reason.
+
+    ``smooth = true`` under ``[estimators.hstf]`` said "hstf has no option 'smooth'", where
+    ``--set smooth=true`` says why hstf has no offline pass and which estimators have one.
+    """
+    path = tmp_path / "tank.toml"
+    header = f"[estimators.{table}]\n"
+    text = TANK_TEXT if header in TANK_TEXT else f"{TANK_TEXT}\n{header}"
+    path.write_text(text.replace(header, f"{header}{key} = {value}\n"))
+    with pytest.raises(ModelError) as caught:
+        prepare(load_model(path), "imm")
+    why = not_offered(ESTIMATORS[table], key, value.strip('"'), ESTIMATORS.values())
+    assert str(caught.value) == f"{path}: estimators.{table}.{key}: estimator '{table}' {why}"
+    assert "does not offer it: " in why and "(estimators that do: imm" in why
 
 
 def test_set_bogus_lists_parameters_and_options_and_suggests(tmp_path):
