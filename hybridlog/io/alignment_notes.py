@@ -23,18 +23,23 @@ from hybridlog.signals import IntArray
 from hybridlog.times import round_duration
 
 
-def sampled_every(time_ns: IntArray, grid_ns: IntArray, dt_ns: int) -> dict[str, float]:
+def sampled_every(time_ns: IntArray, grid_ns: IntArray, dt_ns: int) -> dict[str, float | None]:
     """How often a bridged output was sampled over the grid's span: why it was bridged.
 
     ``every``: the median step (s) between its samples from the grid's first point to its
-    last (the whole series when fewer than two lie there; a bridged output has two at
-    least); ``steps``: that step in steps of ``dt``, to two decimals.  A topic published at
-    a third of the model's rate (``steps`` 3) is bridged at two points of three by design,
-    one published at the model's rate (``steps`` 1) only where the log lacks samples: the
-    report says which (:func:`~hybridlog.report.reading_notes.bridged_cause`), where it asked of
-    both whether the model's dt is the log's.
+    last (the whole series when fewer than two lie there); ``steps``: that step in steps of
+    ``dt``, to two decimals.  A topic published at a third of the model's rate (``steps`` 3)
+    is bridged at two points of three by design, one published at the model's rate
+    (``steps`` 1) only where the log lacks samples: the report says which
+    (:func:`~hybridlog.report.reading_notes.bridged_cause`), where it asked of both whether
+    the model's dt is the log's.  Both ``None`` for a series of one sample, which has no
+    step: an input recorded once (a latched set-point), held over the whole log; the median
+    of no step was NaN, which ``analyze`` refused as numerical trouble.
     """
-    step_ns = float(np.median(_steps_over(time_ns, grid_ns)))
+    steps = _steps_over(time_ns, grid_ns)
+    if steps.size == 0:
+        return {"every": None, "steps": None}
+    step_ns = float(np.median(steps))
     ends = (float(grid_ns[0]) / NS_PER_S, float(grid_ns[-1]) / NS_PER_S)
     every = round_duration(step_ns / NS_PER_S, *ends)
     return {"every": every, "steps": round(step_ns / dt_ns, 2)}

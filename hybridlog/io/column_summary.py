@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from hybridlog.io.column_types import dtype_name, holds_numbers
+from hybridlog.io.source import usable_values
 from hybridlog.io.summary import count_nonfinite, describe_steps
 from hybridlog.polars_import import pl
 from hybridlog.signals import FloatArray, IntArray
@@ -23,10 +24,10 @@ def describe_column(
     info.update(min=None, max=None)
     if values is not None:
         info["nonfinite"] = count_nonfinite(values)
-        finite = values[np.isfinite(values)]
-        if finite.size:
-            info["min"] = float(finite.min())
-            info["max"] = float(finite.max())
+        usable = values[usable_values(values)]
+        if usable.size:
+            info["min"] = float(usable.min())
+            info["max"] = float(usable.max())
     present = column.is_not_null().to_numpy()
     dtype = dtype_name(column.dtype)
     return column_info(column.name, dtype, info, present, time_ns, resolution_ns)
@@ -43,7 +44,8 @@ def column_info(
     """Name, dtype, non-empty and non-finite counts, finite min/max and timing of a column.
 
     ``values`` holds ``count`` (every non-empty cell), ``nonfinite`` (those of them that are
-    NaN or infinite; ``None`` for a column that is not numeric), ``min`` and ``max``;
+    NaN, infinite or out of range, :func:`~hybridlog.io.source.usable_values`; ``None`` for a
+    column that is not numeric), ``min`` and ``max`` of the others;
     ``present`` which rows hold a cell.  The column's own sample times (the times of its
     non-empty cells) are described by :func:`~hybridlog.io.summary.describe_steps`, gaps
     included: an empty stretch in one column of a table whose time column has no gap is

@@ -21,6 +21,7 @@ import numpy as np
 
 from hybridlog.errors import LogError
 from hybridlog.io.exact import beyond_exact
+from hybridlog.io.source import usable_values
 from hybridlog.polars_import import pl
 from hybridlog.signals import IntArray
 
@@ -82,7 +83,7 @@ class ColumnTally:
 
     A column is ``float64`` when every non-empty cell is a number, else ``boolean`` when
     every one (at least one) is ``true`` or ``false`` in any case (read as 1 and 0), else
-    ``string``; ``count``, ``nonfinite`` and the finite range are those of its values, as
+    ``string``; ``count``, ``nonfinite`` and the usable range are those of its values, as
     ``column_summary.describe_column`` gives them for the column read whole.  ``numbers`` counts
     the non-empty cells that are numbers, ``first_text`` is the row and text of the first
     that is not (``None`` while every one is): where a column of numbers has a cell
@@ -213,9 +214,10 @@ class _Block:
         self.numbers = self.parsed == self.held
         values = self._values
         finite = np.isfinite(values)
-        self._nonfinite = (~finite & ~self._unparsed).sum(axis=1)
-        self._low = np.where(finite, values, np.inf).min(axis=1)
-        self._high = np.where(finite, values, -np.inf).max(axis=1)
+        usable = usable_values(values)
+        self._nonfinite = (~usable & ~self._unparsed).sum(axis=1)
+        self._low = np.where(usable, values, np.inf).min(axis=1)
+        self._high = np.where(usable, values, -np.inf).max(axis=1)
         # beyond 2^53 or infinite (not NaN, nor an empty cell): what analyze looks at again,
         # but for infinities spelled so (inf, -Infinity), which it takes
         self._suspect = beyond_exact(values)
@@ -227,7 +229,7 @@ class _Block:
     def add_numbers(self, tally: ColumnTally, index: int, cells: pl.Series) -> None:
         """Add column ``index``'s values (all numbers) to ``tally``; ``cells`` as written."""
         tally._nonfinite += int(self._nonfinite[index])
-        if self._low[index] <= self._high[index]:  # a finite value
+        if self._low[index] <= self._high[index]:  # a usable value
             tally._low = min(tally._low, float(self._low[index]))
             tally._high = max(tally._high, float(self._high[index]))
         suspect = self._suspect[index]

@@ -62,12 +62,12 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
         hold (:func:`~hybridlog.io.summary.round_span`: to the microsecond near 1.7e9 s).
 
         Values: ``count`` counts the samples (non-empty cells, or messages), ``nonfinite``
-        those that are NaN or infinite, which ``analyze`` refuses in a mapped signal (unless
-        ``--drop-nonfinite``).  A topic's ``values`` lists ``name, count, nonfinite`` per
-        field that can hold them (the ``float32``/``float64`` fields of ROS messages, every
-        number of JSON messages, inside arrays of messages or objects too, named with ``[]``;
-        arrays counted element by element); its ``nonfinite`` is
-        their sum.  Both are ``None`` where the messages cannot be decoded; where only some
+        those that are NaN, infinite or out of range (``|value| >= 2^480``), which ``analyze``
+        refuses in a mapped signal (unless ``--drop-nonfinite``).  A topic's ``values`` lists
+        ``name, count, nonfinite`` per field that can hold them (the ``float32``/``float64``
+        fields of ROS messages, every number of JSON messages, inside arrays of messages or
+        objects too, named with ``[]``; arrays counted element by element); its ``nonfinite``
+        is their sum.  Both are ``None`` where the messages cannot be decoded; where only some
         cannot, they are the others' (as are ``fields`` and ``header_stamp``), and
         ``undecodable`` gives how many could not and the earliest one's log time (``count``,
         ``first``; ``None`` where every message was decoded), as ``problems`` does; ``nonfinite`` is
@@ -475,7 +475,7 @@ def _time_named(columns: list[dict[str, Any]]) -> str | None:
 
 
 def _nonfinite_lines(entries: list[dict[str, Any]], time_column: str | None = None) -> list[str]:
-    """The columns or message fields holding NaN or infinite values, with their counts.
+    """The columns or message fields holding NaN, infinite or out-of-range values, and how many.
 
     ``--drop-nonfinite`` drops values, never a time: the time column's count says so.
     """
@@ -485,7 +485,7 @@ def _nonfinite_lines(entries: list[dict[str, Any]], time_column: str | None = No
     lines = [
         "",
         "non-finite values (NaN, inf; analyze refuses them in a mapped signal unless "
-        "--drop-nonfinite):",
+        "--drop-nonfinite; counted with them, values out of range: |value| >= 2^480):",
     ]
     lines.extend(
         f"  {_shown(e['name'])}: {e['nonfinite']} of {e['count']}"

@@ -19,6 +19,7 @@ from types import TracebackType
 from typing import Any, Protocol, Self
 
 import numpy as np
+import numpy.typing as npt
 
 from hybridlog.errors import LogError, names_apart
 from hybridlog.signals import MAX_MAGNITUDE, BoolArray, FloatArray, IntArray
@@ -301,6 +302,16 @@ def seconds_of(ns: int | np.integer[Any]) -> float:
     return int(ns) / NS_PER_S
 
 
+def usable_values(values: npt.NDArray[np.floating[Any]]) -> BoolArray:
+    """Which ``values`` a signal may hold: finite and below ``MAX_MAGNITUDE`` in magnitude.
+
+    The others ``analyze`` refuses in a mapped signal, ``--drop-nonfinite`` drops and
+    ``inspect`` counts as ``nonfinite`` (:data:`~hybridlog.signals.MAX_MAGNITUDE`).
+    """
+    usable: BoolArray = np.isfinite(values) & (np.abs(values) < MAX_MAGNITUDE)
+    return usable
+
+
 def last_of_each_time(time_ns: IntArray, values: FloatArray | None = None) -> BoolArray:
     """Which samples of sorted ``time_ns`` (repeats allowed) ``--sort`` keeps.
 
@@ -313,7 +324,7 @@ def last_of_each_time(time_ns: IntArray, values: FloatArray | None = None) -> Bo
     last: BoolArray = np.append(time_ns[1:] != time_ns[:-1], True)
     if values is None:
         return last
-    usable = np.isfinite(values) & (np.abs(values) < MAX_MAGNITUDE)
+    usable = usable_values(values)
     if usable.all():
         return last
     kept = np.flatnonzero(usable)

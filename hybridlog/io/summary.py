@@ -10,8 +10,9 @@ a gap or a count of NaNs means the same whatever the format.
   would overstate the rate, so the steps' range is given and the timing called irregular.
 - A step longer than :data:`GAP_FACTOR` times the median step is a gap; timing is regular
   when every step lies within a factor :data:`GAP_FACTOR` of the median step.
-- Non-finite values (NaN, +inf, -inf) are counted apart from the samples, because
-  ``analyze`` refuses them in a mapped signal (unless ``--drop-nonfinite``).
+- Non-finite values (NaN, +inf, -inf), and values out of range (``|value| >= 2^480``, what
+  corrupt bytes decode to), are counted apart from the samples, because ``analyze``
+  refuses them in a mapped signal (unless ``--drop-nonfinite``).
 - Steps, spans and gap lengths are differences of times, and hold no more digits than the
   times do: seconds stored as float64 near a Unix time (1.7e9 s) are 238 ns apart, so the
   difference of two of them is off by as much, and a 100 Hz log's step read 0.00999999 s.
@@ -28,7 +29,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from hybridlog.io.source import seconds_of
+from hybridlog.io.source import seconds_of, usable_values
 from hybridlog.signals import IntArray
 
 GAP_FACTOR = 1.5
@@ -155,5 +156,5 @@ def describe_steps(
 
 
 def count_nonfinite(values: npt.NDArray[np.floating[Any]]) -> int:
-    """How many of ``values`` are NaN, +inf or -inf."""
-    return int(values.size - np.count_nonzero(np.isfinite(values)))
+    """How many of ``values`` are NaN, +inf, -inf or out of range (:func:`usable_values`)."""
+    return int(values.size - np.count_nonzero(usable_values(values)))
