@@ -34,7 +34,7 @@ from hybridlog.errors import (
 from hybridlog.estimators import Prepared
 from hybridlog.jobs.batch_folders import check_apart_from_reports
 from hybridlog.jobs.batch_job import BatchJob
-from hybridlog.jobs.batch_logs import missing_pattern_hint, recover_applies
+from hybridlog.jobs.batch_logs import header_time_applies, missing_pattern_hint, recover_applies
 from hybridlog.jobs.batch_others import PROVENANCE_KEY
 from hybridlog.jobs.batch_outcomes import LogOutcome, error_line
 from hybridlog.jobs.estimation import (
@@ -318,6 +318,8 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     read = job.read
     if read.recover and not recover_applies(log):  # another format: said by recover_note
         read = dataclasses.replace(read, recover=False)
+    if read.time == "header" and not header_time_applies(log):  # a table: header_time_note
+        read = dataclasses.replace(read, time="log")
     signals = read_log(log, warm.model, read, reading)
     _check_log_unchanged(log, stamp)
     if job.read.msg_dirs:  # and after: an edit saved while the log was read
