@@ -21,7 +21,7 @@ from typing import Any
 
 from hybridlog.errors import OutputError, excerpt
 from hybridlog.estimators import Prepared
-from hybridlog.io import ReadOptions
+from hybridlog.io import ReadOptions, SignalSpec, check_read_options
 from hybridlog.jobs.batch_folders import prepare_root, report_kind
 from hybridlog.jobs.batch_job import BatchJob
 from hybridlog.jobs.batch_logs import natural_key
@@ -118,6 +118,7 @@ def plan(
         model, [estimator], overrides, smooth=smooth, mode_sequence=mode_sequence
     )
     gates = gates_for(model, [prepared], fail_under, fail_over)
+    check_read_options(SignalSpec.of(model), read)  # --map's symbols: once, not with each log
     check_table_format(table_format)
     check_followable(out_dir)  # as given: output_path takes log.csv/../out for ./out
     root = output_path(out_dir)

@@ -1,10 +1,11 @@
-"""``batch --time header`` reads the header stamps of its bags and MCAP files, not of tables.
+"""Read options a batch gives every log: applied where they apply, checked once up front.
 
 ``analyze --time header`` refuses a CSV or Parquet file, whose time column is the only time
 it has.  A batch over a folder of mixed formats failed every table with that message
 ("use --time log"), which its bags could not be given in the same run; and a batch of
 tables only failed each of them, after removing the reports an earlier run had made of
-them, instead of refusing the option as ``--recover`` over no MCAP file is.
+them, instead of refusing the option as ``--recover`` over no MCAP file is.  A ``--map``
+of a symbol the model lacks failed every log alike too.
 """
 
 from __future__ import annotations
@@ -51,5 +52,17 @@ def test_a_batch_of_tables_only_refuses_it_and_keeps_the_earlier_reports(tmp_pat
 
     with pytest.raises(OptionError, match=r"^--time header: no log of the batch is a bag or an"):
         run_batch(logs, TANK, out_dir=out, estimator="imm", read=HEADER)
+
+    assert (out / "s1.csv" / "report.json").is_file() and (out / "s2.csv" / "report.json").is_file()
+
+
+def test_a_map_of_a_symbol_the_model_lacks_is_refused_before_any_log(tmp_path: Path) -> None:
+    # it depends on the model alone: each log failed with it, losing its earlier report
+    logs = [write_table(tmp_path / f"s{k}.csv", tank_run(steps=30, seed=k).columns) for k in (1, 2)]
+    out = tmp_path / "out"
+    run_batch(logs, TANK, out_dir=out, estimator="imm")
+
+    with pytest.raises(OptionError, match=r"^--map 'y9=y1': unknown symbol 'y9'; valid symbols"):
+        run_batch(logs, TANK, out_dir=out, estimator="imm", read=ReadOptions(maps=("y9=y1",)))
 
     assert (out / "s1.csv" / "report.json").is_file() and (out / "s2.csv" / "report.json").is_file()
