@@ -36,10 +36,18 @@ GLOB_CHARACTERS = frozenset("*?[")
 """What a shell expands in a word it is given unquoted."""
 
 
-def natural_key(text: str) -> tuple[tuple[int, int | str], ...]:
-    """Sort key that orders digit runs by value: ``s1, s2, s10`` rather than ``s1, s10, s2``."""
-    return tuple(
-        (0, int(part)) if part.isdigit() else (1, part) for part in re.split(r"(\d+)", text) if part
+def natural_key(text: str) -> tuple[tuple[tuple[int, int | str], ...], str]:
+    """Sort key that orders digit runs by value: ``s1, s2, s10`` rather than ``s1, s10, s2``.
+
+    Names of equal value (``r1``, ``r01``, ``r001``) are ordered by their text: they kept
+    the order they were given in, so the summaries' rows hung on the order of the arguments.
+    A digit run is what the pattern matches, decimal digits (``isdecimal``): ``isdigit`` also
+    took a superscript ``²`` for one, which ``int`` refuses (``run1²2.csv`` ended the batch).
+    """
+    parts = re.split(r"(\d+)", text)
+    return (
+        tuple((0, int(part)) if part.isdecimal() else (1, part) for part in parts if part),
+        text,
     )
 
 
