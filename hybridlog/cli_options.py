@@ -178,7 +178,7 @@ def read_options(function: F) -> F:
             default="log",
             show_default=True,
             help="Sample times of bag and MCAP messages: the recorder's log time, or each "
-            "message's header.stamp.",
+            "message's header.stamp (batch reads its tables by their time column).",
         ),
         click.option(
             "--sort",

@@ -19,7 +19,7 @@ import signal
 import sys
 import traceback
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import NoReturn
 
@@ -59,9 +59,53 @@ def _end_on_signal(signum: int, frame: object) -> None:
     if _ENDING:
         return
     _ENDING.append(signum)
-    if signum == signal.SIGINT:
-        raise KeyboardInterrupt
-    raise _Terminated(128 + signum)
+    error = KeyboardInterrupt() if signum == signal.SIGINT else _Terminated(128 + signum)
+    _RAISED[:] = [error]
+    raise error
+
+
+_RAISED: list[BaseException] = []
+"""The exception :func:`_end_on_signal` raised, to tell it where Python drops it."""
+
+
+def _raise_dropped_signal(
+    previous: Callable[[sys.UnraisableHookArgs], object],
+) -> Callable[[sys.UnraisableHookArgs], None]:
+    """A ``sys.unraisablehook`` that sends the ending signal again when its exception is dropped.
+
+    Python drops an exception raised inside a finaliser (``__del__``) or a callback it
+    calls from C, printing "Exception ignored in" and a traceback.  Ctrl-C while numba
+    compiled in a batch's own process (``--jobs 1``) came inside llvmlite's ``__del__``: the
+    command went on to its end and exit 0, every later signal dropped as the command was
+    taken to be ending.  The signal is sent again, from a thread, to be raised once the
+    finaliser returned (again, should it come inside another).  Other exceptions go to
+    ``previous``.
+    """
+
+    def hook(unraisable: sys.UnraisableHookArgs) -> None:
+        if not (_RAISED and unraisable.exc_value is _RAISED[0]):
+            previous(unraisable)
+            return
+        import threading  # here: a dropped signal only
+        import time
+
+        signum = _ENDING[0]
+
+        def send_again() -> None:
+            # later, and only then taken as not ending: raised at once, it came inside this
+            # hook (starting a thread waits for it), which drops it too
+            time.sleep(_SEND_AGAIN_S)
+            _RAISED.clear()
+            _ENDING.clear()
+            os.kill(os.getpid(), signum)
+
+        threading.Thread(target=send_again, daemon=True).start()
+
+    return hook
+
+
+_SEND_AGAIN_S = 0.05
+"""How long after a dropped signal's exception it is sent again (:func:`_raise_dropped_signal`)."""
 
 
 def _handle_ending_signals() -> None:
@@ -74,6 +118,7 @@ def _handle_ending_signals() -> None:
         signal.signal(ending, _end_on_signal)
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
         signal.signal(signal.SIGINT, _end_on_signal)
+    sys.unraisablehook = _raise_dropped_signal(sys.unraisablehook)
 
 
 SHARED_IMPORTS = ("numpy", "hybridlog.model.cache", "hybridlog.estimators.result")

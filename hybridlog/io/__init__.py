@@ -21,7 +21,7 @@ from hybridlog.lazy import lazy_exports
 if TYPE_CHECKING:
     from hybridlog.io.formats import FORMATS, LogFormat, open_log
     from hybridlog.io.inspect import format_inspection, inspect_log
-    from hybridlog.io.load import SignalSpec, load_signals
+    from hybridlog.io.load import SignalSpec, check_read_options, load_signals
     from hybridlog.io.mapping import SignalMap
     from hybridlog.io.options import ReadOptions
     from hybridlog.io.source import LabelSeries, LogSource, Reading, Series, SourceInfo
@@ -38,6 +38,7 @@ __all__ = [
     "SignalMap",
     "SignalSpec",
     "SourceInfo",
+    "check_read_options",
     "format_inspection",
     "inspect_log",
     "load_signals",
@@ -50,7 +51,7 @@ __getattr__, __dir__ = lazy_exports(
     {
         ".formats": ["FORMATS", "LogFormat", "open_log"],
         ".inspect": ["format_inspection", "inspect_log"],
-        ".load": ["SignalSpec", "load_signals"],
+        ".load": ["SignalSpec", "check_read_options", "load_signals"],
         ".mapping": ["SignalMap"],
         ".options": ["ReadOptions"],
         ".source": ["LabelSeries", "LogSource", "Reading", "Series", "SourceInfo"],

@@ -86,6 +86,10 @@ class LogFormat:
         Whether its reader reads the file with ``--recover`` (sequentially, up to the first
         damaged record): a bare MCAP file only.  Another format given ``--recover`` is
         refused as it is opened (:meth:`open`): the option was silently ignored.
+    stamped:
+        Whether its messages may carry the ``header.stamp`` that ``--time header`` reads: bags
+        and MCAP files.  A table's time column is the only time it has (its reader refuses
+        ``--time header``).
     """
 
     name: str
@@ -98,6 +102,7 @@ class LogFormat:
     directory: bool = False
     index_file: str = ""
     recovers: bool = False
+    stamped: bool = False
 
     def open(self, path: Path, options: ReadOptions) -> LogSource:
         """Open ``path`` with this format's reader (imported on first use).
@@ -152,6 +157,7 @@ FORMATS: tuple[LogFormat, ...] = (
         "hybridlog.io.mcap_reader:open_mcap",
         magic=MCAP_MAGIC,
         recovers=True,
+        stamped=True,
     ),
     LogFormat(
         "ros1-bag",
@@ -161,6 +167,7 @@ FORMATS: tuple[LogFormat, ...] = (
         "hybridlog.io.rosbag_reader:BagSource",
         magic=b"#ROSBAG V2.0\n",
         misnamed="is a ROS 1 bag; rename it to end in .bag to read it",
+        stamped=True,
     ),
     LogFormat(
         "ros2-db3",
@@ -170,6 +177,7 @@ FORMATS: tuple[LogFormat, ...] = (
         "hybridlog.io.rosbag_reader:BagSource",
         magic=b"SQLite format 3\x00",
         misnamed="is an SQLite database; a ROS 2 bag file must end in .db3",
+        stamped=True,
     ),
     LogFormat(
         "ros2-bag",
@@ -179,6 +187,7 @@ FORMATS: tuple[LogFormat, ...] = (
         "hybridlog.io.rosbag_reader:BagSource",
         directory=True,
         index_file="metadata.yaml",
+        stamped=True,
     ),
 )
 

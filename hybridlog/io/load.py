@@ -149,6 +149,29 @@ class SignalSpec:
         )
 
 
+def check_read_options(spec: SignalSpec, options: ReadOptions) -> dict[str, str]:
+    """Check the read options against the model alone; return the parsed ``--map``.
+
+    The alignment options against its ``dt``, ``--map``'s symbols against its symbols:
+    nothing of a log.  :func:`load_signals` checks them first; ``batch`` before its first
+    log (each log failed alike, losing the report an earlier run made of it).
+
+    Raises
+    ------
+    OptionError
+        For a malformed ``--map``, an unknown symbol, or an unusable ``dt``.
+    """
+    check_alignment_options(spec.dt, options.resample, options.max_gap)
+    return parse_maps(
+        options.maps,
+        inputs=spec.inputs,
+        outputs=spec.outputs,
+        states=spec.states,
+        components=tuple(spec.components),
+        commands=spec.commands,
+    )
+
+
 def load_signals(
     path: str | os.PathLike[str],
     spec: SignalSpec,
@@ -192,15 +215,7 @@ def load_signals(
         out-of-range value, time going backwards, an unknown true mode, or an over-long gap.
     """
     options = options or ReadOptions()
-    check_alignment_options(spec.dt, options.resample, options.max_gap)
-    parsed = parse_maps(
-        options.maps,
-        inputs=spec.inputs,
-        outputs=spec.outputs,
-        states=spec.states,
-        components=tuple(spec.components),
-        commands=spec.commands,
-    )
+    parsed = check_read_options(spec, options)
     notes = notes if notes is not None else {}
     with open_log(path, options) as source:
         info = source.info

@@ -72,7 +72,7 @@ from hybridlog.jobs.batch_folders import (
 )
 from hybridlog.jobs.batch_job import PLOT_CHOICES
 from hybridlog.jobs.batch_junit import record_junit, withdraw_previous_junit
-from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, recover_note
+from hybridlog.jobs.batch_logs import FoundLogs, batch_logs, header_time_note, recover_note
 from hybridlog.jobs.batch_others import other_folders, others_note
 from hybridlog.jobs.batch_outcomes import BatchOutcome, LogOutcome, error_line
 from hybridlog.jobs.batch_plan import plan
@@ -219,6 +219,9 @@ def run_batch(
     if read is not None and read.recover:  # refused when it applies to no log
         recovered = recover_note(paths)
         notes += [] if recovered is None else [recovered]
+    if read is not None and read.time == "header":  # so too: the tables keep their time column
+        stamped = header_time_note(paths)
+        notes += [] if stamped is None else [stamped]
     if scheduler is None and jobs > 1:
         jobs, capped = pool_size(jobs, len(paths), auto=auto)
         notes += capped

@@ -31,6 +31,7 @@ from hybridlog.outputs import (
     temporary_name,
     write_marker,
 )
+from hybridlog.outputs.file_targets import path_too_long
 
 __all__ = [
     "check_apart_from_reports",
@@ -171,7 +172,9 @@ def remove_previous_report(job: BatchJob, outcome: LogOutcome) -> None:
     the edit kept), and a link.
     """
     folder = Path(outcome.folder)
-    if outcome.status != "failed" or folder.is_symlink() or not folder.is_dir():
+    if outcome.status != "failed" or path_too_long(folder, folder=True) is not None:
+        return  # (a path too long for the system: no folder there)
+    if folder.is_symlink() or not folder.is_dir():
         return
     if report_kind(folder / "report.json") != (job.model_name, job.estimator):
         return

@@ -13,17 +13,19 @@ import os
 import re
 import unicodedata
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
 from hybridlog.errors import LogError, OptionError, as_name, excerpt, first_few, names_apart
-from hybridlog.io.formats import format_list, indexed_log, log_format, logs_in
+from hybridlog.io.formats import LogFormat, format_list, indexed_log, log_format, logs_in
 from hybridlog.outputs import PathLike
 
 __all__ = [
     "FoundLogs",
     "batch_logs",
+    "header_time_applies",
+    "header_time_note",
     "missing_pattern_hint",
     "natural_key",
     "recover_applies",
@@ -34,10 +36,18 @@ GLOB_CHARACTERS = frozenset("*?[")
 """What a shell expands in a word it is given unquoted."""
 
 
-def natural_key(text: str) -> tuple[tuple[int, int | str], ...]:
-    """Sort key that orders digit runs by value: ``s1, s2, s10`` rather than ``s1, s10, s2``."""
-    return tuple(
-        (0, int(part)) if part.isdigit() else (1, part) for part in re.split(r"(\d+)", text) if part
+def natural_key(text: str) -> tuple[tuple[tuple[int, int | str], ...], str]:
+    """Sort key that orders digit runs by value: ``s1, s2, s10`` rather than ``s1, s10, s2``.
+
+    Names of equal value (``r1``, ``r01``, ``r001``) are ordered by their text: they kept
+    the order they were given in, so the summaries' rows hung on the order of the arguments.
+    A digit run is what the pattern matches, decimal digits (``isdecimal``): ``isdigit`` also
+    took a superscript ``²`` for one, which ``int`` refuses (``run1²2.csv`` ended the batch).
+    """
+    parts = re.split(r"(\d+)", text)
+    return (
+        tuple((0, int(part)) if part.isdecimal() else (1, part) for part in parts if part),
+        text,
     )
 
 
@@ -350,6 +360,31 @@ def recover_applies(log: PathLike) -> bool:
         return True
 
 
+def header_time_applies(log: PathLike) -> bool:
+    """Whether ``--time header`` reads ``log``: a bag or an MCAP file (``LogFormat.stamped``).
+
+    A log whose format cannot be told counts as one it applies to, as for
+    :func:`recover_applies`.
+    """
+    try:
+        return log_format(log).stamped
+    except LogError:
+        return True
+
+
+def _others(logs: Sequence[str], applies: Callable[[LogFormat], bool]) -> Counter[str]:
+    """How many of ``logs`` are of each format an option does not apply to."""
+    others: Counter[str] = Counter()
+    for log in logs:
+        try:
+            found = log_format(log)
+        except LogError:  # fails as that log, with the reason
+            continue
+        if not applies(found):
+            others[found.name] += 1
+    return others
+
+
 def recover_note(logs: Sequence[str]) -> str | None:
     """What ``--recover`` does over a batch's ``logs``, some of which may not be MCAP files.
 
@@ -364,14 +399,7 @@ def recover_note(logs: Sequence[str]) -> str | None:
     OptionError
         When no log of the batch is an MCAP file: the option applies to none of them.
     """
-    others: Counter[str] = Counter()
-    for log in logs:
-        try:
-            found = log_format(log)
-        except LogError:  # fails as that log, with the reason
-            continue
-        if not found.recovers:
-            others[found.name] += 1
+    others = _others(logs, lambda found: found.recovers)
     if not others:
         return None
     kinds = ", ".join(f"{count} {name}" for name, count in sorted(others.items()))
@@ -391,4 +419,38 @@ def recover_note(logs: Sequence[str]) -> str | None:
             if rest > 1
             else f"the other log ({kinds}) is not an MCAP file and is read as it is"
         )
+    )
+
+
+def header_time_note(logs: Sequence[str]) -> str | None:
+    """What ``--time header`` does over a batch's ``logs``, some of which may be tables.
+
+    ``analyze`` refuses ``--time header`` for a CSV or Parquet file, whose time column is
+    the only time it has; over a folder of logs of mixed formats it means "the bags' and
+    MCAP files' header stamps", so the tables are read by their time column (each of them
+    failed, telling to use ``--time log``, which the bags of the batch could not be given)
+    and this note says how many they are.  None: every log is a bag or an MCAP file.
+
+    Raises
+    ------
+    OptionError
+        When every log of the batch is a table: the option applies to none of them (each
+        log failed, and the reports of an earlier run were removed with it).
+    """
+    others = _others(logs, lambda found: found.stamped)
+    if not others:
+        return None
+    kinds = ", ".join(f"{count} {name}" for name, count in sorted(others.items()))
+    read = len(logs) - sum(others.values())
+    if read == 0:
+        raise OptionError(
+            f"--time header: no log of the batch is a bag or an MCAP file ({kinds}); a "
+            "table's time column is the only time it has: leave it out"
+        )
+    rest = sum(others.values())
+    stamped = f"{read} bags and MCAP files" if read > 1 else "bag or MCAP file"
+    return f"--time header: applied to the {stamped} of the batch; " + (
+        f"the other {rest} logs ({kinds}) are tables, read by their time column"
+        if rest > 1
+        else f"the other log ({kinds}) is a table, read by its time column"
     )

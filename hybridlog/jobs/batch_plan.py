@@ -21,7 +21,7 @@ from typing import Any
 
 from hybridlog.errors import OutputError, excerpt
 from hybridlog.estimators import Prepared
-from hybridlog.io import ReadOptions
+from hybridlog.io import ReadOptions, SignalSpec, check_read_options
 from hybridlog.jobs.batch_folders import prepare_root, report_kind
 from hybridlog.jobs.batch_job import BatchJob
 from hybridlog.jobs.batch_logs import natural_key
@@ -51,7 +51,7 @@ from hybridlog.outputs import (
     check_file_target,
     output_path,
 )
-from hybridlog.outputs.file_targets import check_followable
+from hybridlog.outputs.file_targets import check_followable, path_too_long
 from hybridlog.report.gates import Gate
 from hybridlog.report.junit import check_junit_target
 from hybridlog.report.table_format import check_table_format
@@ -118,6 +118,7 @@ def plan(
         model, [estimator], overrides, smooth=smooth, mode_sequence=mode_sequence
     )
     gates = gates_for(model, [prepared], fail_under, fail_over)
+    check_read_options(SignalSpec.of(model), read)  # --map's symbols: once, not with each log
     check_table_format(table_format)
     check_followable(out_dir)  # as given: output_path takes log.csv/../out for ./out
     root = output_path(out_dir)
@@ -168,11 +169,13 @@ def plan(
     folders = [root / name for name in names]
     if junit is not None:
         _check_junit_apart(junit, root, paths, folders)
+    # a folder whose path is too long fails its log alone (batch_task): never looked at here
+    usable = [folder for folder in folders if path_too_long(folder, folder=True) is None]
     if not force:
-        _check_same_run_kind(root, folders, job)
+        _check_same_run_kind(root, usable, job)
     if check_inputs is not None:
         check_inputs(inputs)
-    made = prepare_root(root, folders, contextlib.ExitStack() if locks is None else locks)
+    made = prepare_root(root, usable, contextlib.ExitStack() if locks is None else locks)
     if check_out is not None:
         try:
             check_out(root)

@@ -34,7 +34,7 @@ from hybridlog.errors import (
 from hybridlog.estimators import Prepared
 from hybridlog.jobs.batch_folders import check_apart_from_reports
 from hybridlog.jobs.batch_job import BatchJob
-from hybridlog.jobs.batch_logs import missing_pattern_hint, recover_applies
+from hybridlog.jobs.batch_logs import header_time_applies, missing_pattern_hint, recover_applies
 from hybridlog.jobs.batch_others import PROVENANCE_KEY
 from hybridlog.jobs.batch_outcomes import LogOutcome, error_line
 from hybridlog.jobs.estimation import (
@@ -51,6 +51,7 @@ from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.jobs.provenance import content_hash, folder_stamp, log_stamp, model_hash
 from hybridlog.model.hybrid_model import HybridModel
 from hybridlog.outputs import check_dir_target, edited_files, recorded_files
+from hybridlog.outputs.file_targets import check_path_length
 from hybridlog.report import Report, evaluate_gates, parse_gates, read_report
 from hybridlog.report.gates import Gate
 
@@ -292,8 +293,9 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
 
 def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     path = Path(folder)
-    # creatable (not under a file nor in another log's report), and a folder hybridlog did
-    # not write is never replaced, with or without --force
+    # creatable (a path the system takes, not under a file nor in another log's report), and
+    # a folder hybridlog did not write is never replaced, with or without --force
+    check_path_length(path, folder=True)  # first: a longer path fails every system call
     check_apart_from_reports(path)
     check_dir_target(path, force=True, replacing=False)
     # The log's bytes are hashed before they are read, and what stat says of it is the same
@@ -316,6 +318,8 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     read = job.read
     if read.recover and not recover_applies(log):  # another format: said by recover_note
         read = dataclasses.replace(read, recover=False)
+    if read.time == "header" and not header_time_applies(log):  # a table: header_time_note
+        read = dataclasses.replace(read, time="log")
     signals = read_log(log, warm.model, read, reading)
     _check_log_unchanged(log, stamp)
     if job.read.msg_dirs:  # and after: an edit saved while the log was read

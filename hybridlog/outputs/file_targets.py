@@ -20,6 +20,10 @@ from hybridlog.outputs.temporaries import temporary_name
 _TEMPORARY_OVERHEAD = len(".x.hybridlog-tmp-0000-4194304-00000000") - 1
 """How much longer than its target's name a temporary name can be (:func:`temporary_name`)."""
 
+_ROOM_INSIDE = len("/.estimates.parquet") + _TEMPORARY_OVERHEAD
+"""How much longer than an output folder's path the paths written in it can be: a report's
+longest file name, as a temporary name (:func:`check_path_length` with ``folder``)."""
+
 
 def check_followable(target: PathLike) -> None:
     """Refuse an output path, as given, that runs through a file: ``run.csv/../out``.
@@ -62,6 +66,47 @@ def check_followable(target: PathLike) -> None:
             )
 
 
+def path_too_long(target: Path, *, folder: bool = False) -> str | None:
+    """Why ``target`` (absolute) is a path the system would refuse as too long, or None.
+
+    Its temporary name beside it, and for a ``folder`` the files written in it, must fit
+    the file system's limit on a whole path (``PC_PATH_MAX``): a batch's report folder is
+    its log's path below ``--out``, and a deep tree of logs under a long ``--out`` gave a
+    path on which every ``exists()`` raised ``ENAMETOOLONG``, ending the whole batch as an
+    unexpected ``OSError``.  No system call is made on ``target`` itself.
+    """
+    ancestor = target.parent
+    while ancestor.parent != ancestor and not os.path.isdir(ancestor):
+        ancestor = ancestor.parent
+    try:
+        limit = os.pathconf(ancestor, "PC_PATH_MAX") - 1  # the count holds the ending NUL
+    except (OSError, ValueError):
+        limit = 4095
+    needed = len(os.fsencode(target)) + _TEMPORARY_OVERHEAD + (_ROOM_INSIDE if folder else 0)
+    if needed <= limit:
+        return None
+    inside = (
+        " with its temporary name and the files written in it"
+        if folder
+        else (" with its temporary name")
+    )
+    return (
+        f"{shown_path(target)}: the path is too long ({needed} bytes{inside}; at most {limit} here)"
+    )
+
+
+def check_path_length(target: Path, *, folder: bool = False) -> None:
+    """Refuse a path the system would refuse as too long (:func:`path_too_long`).
+
+    Raises
+    ------
+    OutputError
+        Naming the path, its length and the limit.
+    """
+    if (why := path_too_long(target, folder=folder)) is not None:
+        raise OutputError(why)
+
+
 def check_creatable(target: Path) -> None:
     """Refuse an output path that cannot be created or replaced, before any work is done.
 
@@ -75,6 +120,7 @@ def check_creatable(target: Path) -> None:
     OutputError
         Naming the path and what is wrong with it.
     """
+    check_path_length(target)
     ancestor = target.parent
     missing = [target.name]
     while ancestor.parent != ancestor and not path_present(ancestor):

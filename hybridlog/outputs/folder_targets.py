@@ -13,7 +13,7 @@ from collections.abc import Callable, Collection, Iterator, Sequence
 from pathlib import Path
 
 from hybridlog.errors import OutputError, as_name, excerpt, first_few
-from hybridlog.outputs.file_targets import check_creatable, check_followable
+from hybridlog.outputs.file_targets import check_creatable, check_followable, check_path_length
 from hybridlog.outputs.paths import MARKER, PathLike, output_path, path_present, shown_path
 from hybridlog.outputs.records import edited_files, is_ours, record_path, recorded_files
 from hybridlog.outputs.temporaries import folder_entries, own_temporary, remove_stale_temporaries
@@ -54,6 +54,7 @@ def check_dir_target(
     path = output_path(target)
     if path.parent == path:
         raise OutputError(f"output directory {shown_path(target)} cannot be replaced")
+    check_path_length(path, folder=True)  # first: no system call takes a longer path
     check_creatable(path)
     _check_not_part(path)
     if not path_present(path):

@@ -13,6 +13,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -153,12 +154,15 @@ def ending_signals() -> Iterator[None]:
     from hybridlog import cli_process
 
     saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    hook = sys.unraisablehook
     cli_process._ENDING.clear()
     cli_process._handle_ending_signals()
     try:
         yield
     finally:
         cli_process._ENDING.clear()
+        cli_process._RAISED.clear()
+        sys.unraisablehook = hook
         for signum, handler in saved.items():
             signal.signal(signum, handler)
 
@@ -186,6 +190,31 @@ def test_a_second_signal_does_not_cut_the_removal_of_the_temporary_folder_short(
         (folder / "report.json").write_text("{}")
         signal.raise_signal(signum)  # the first
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_python_drops_in_a_finaliser_is_raised_after_it(
+    ending_signals: None, signum: int, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Ctrl-C while numba compiled in a batch's own process (``--jobs 1``) came inside
+    llvmlite's ``__del__``, where Python drops an exception ("Exception ignored in"): the
+    batch went on to its end, exit 0, and every later Ctrl-C was dropped as the command was
+    taken to be ending."""
+    from hybridlog import cli_process
+
+    cli_process._handle_ending_signals()  # again: pytest sets its own hook for the test's call
+
+    class Finalised:
+        def __del__(self) -> None:
+            signal.raise_signal(signum)  # its exception is raised here, and dropped
+
+    expected = KeyboardInterrupt if signum == signal.SIGINT else cli_process._Terminated
+    deadline = time.monotonic() + 5
+    with pytest.raises(expected):
+        Finalised()  # finalised at once
+        while time.monotonic() < deadline:
+            time.sleep(0.01)
+    assert "Exception ignored" not in capsys.readouterr().err
 
 
 def test_an_ignored_sigint_stays_ignored(ending_signals: None) -> None:
