@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 
 from hybridlog.report.coverage import mode_coverage
 from hybridlog.report.markdown import code_span, escape_markdown, plural
+from hybridlog.report.summary_budget import SUMMARY_BYTES, Listing, within_budget
 from hybridlog.report.summary_notes import (
     MAX_NAMED,
     common_notes,
@@ -89,6 +90,11 @@ def comparison_markdown(
             notes = [f"- {escape_markdown(note)}" for note in own]
             lines += ["", f"## Notes on `{name}`", "", *notes]
     return "\n".join(lines) + "\n"
+
+
+def _miss_line(row: BatchRow) -> str:
+    """A log's item among the missed gates: the gates it missed, with its values."""
+    return f"- {escape_markdown(row.log)}: {escape_markdown('; '.join(row.missed))}"
 
 
 def _failure_line(row: BatchRow) -> str:
@@ -233,16 +239,28 @@ def batch_markdown(
         lines += ["", "Gates: " + ", ".join(f"`{gate}`" for gate in gates) + "."]
     elif not gated_rows and len(failed) < len(rows):
         lines += ["", "No gate given."]
-    lines += ["", table]
+    head, rule, *table_rows = table.split("\n")
+    shown = Listing(
+        table_rows,
+        lambda n: (
+            f"\nThe table leaves out its last {plural(n, 'log')} (summary.csv "
+            f"lists every log): {_BUDGET_REASON}."
+        ),
+    )
+    listed_failures = Listing(
+        [_failure_line(row) for row in failed],
+        lambda n: f"- and {n:,} more (summary.csv's `error` column)",
+    )
+    listed_misses = Listing(
+        [_miss_line(row) for row in missed],
+        lambda n: f"- and {n:,} more (summary.csv's `gate_failures` column)",
+    )
+    parts: list[str | Listing] = [*lines, "", head, rule, shown]
     if failed:
-        lines += ["", f"## Failed logs ({len(failed)} of {len(rows)})", ""]
-        lines += [_failure_line(row) for row in failed]
+        parts += ["", f"## Failed logs ({len(failed)} of {len(rows)})", "", listed_failures]
     if missed:
-        lines += ["", f"## Missed gates ({len(missed)} of {len(rows)})", ""]
-        lines += [
-            f"- {escape_markdown(row.log)}: {escape_markdown('; '.join(row.missed))}"
-            for row in missed
-        ]
+        parts += ["", f"## Missed gates ({len(missed)} of {len(rows)})", "", listed_misses]
+    lines = []
     shared = common_notes(row.report for row in rows if row.report is not None)
     lines += warnings_section(
         [(escape_markdown(row.log), row.report) for row in rows],
@@ -256,7 +274,14 @@ def batch_markdown(
     lines += _notes_section(shared)
     lines += _made_elsewhere_section(rows)
     lines += _others_section(others)
-    return table, "\n".join(lines) + "\n"
+    fitted = within_budget([*parts, *lines], [shown, listed_misses, listed_failures])
+    return table, "\n".join(fitted) + "\n"
+
+
+_BUDGET_REASON = (
+    f"summary.md is kept within {SUMMARY_BYTES:,} bytes, what a CI job summary shows "
+    "(GitHub's: 1 MiB)"
+)
 
 
 def _made_elsewhere_section(rows: Sequence[BatchRow]) -> list[str]:
