@@ -385,6 +385,35 @@ def _others(logs: Sequence[str], applies: Callable[[LogFormat], bool]) -> Counte
     return others
 
 
+def _counted_apart(
+    logs: Sequence[str],
+    applies: Callable[[LogFormat], bool],
+    flag: str,
+    kind: str,
+    why: str,
+) -> tuple[int, int, str] | None:
+    """How many of ``logs`` an option ``flag`` applies to, how many not, and their formats.
+
+    ``(read, rest, kinds)``: ``kinds`` the formats of the ``rest`` as ``2 csv, 1 parquet``.
+    None: it applies to every log (or none can be told).
+
+    Raises
+    ------
+    OptionError
+        When it applies to no log: ``<flag>: no log of the batch is <kind> (<kinds>);
+        <why>: leave it out``.
+    """
+    others = _others(logs, applies)
+    if not others:
+        return None
+    kinds = ", ".join(f"{count} {name}" for name, count in sorted(others.items()))
+    rest = sum(others.values())
+    read = len(logs) - rest
+    if read == 0:
+        raise OptionError(f"{flag}: no log of the batch is {kind} ({kinds}); {why}: leave it out")
+    return read, rest, kinds
+
+
 def recover_note(logs: Sequence[str]) -> str | None:
     """What ``--recover`` does over a batch's ``logs``, some of which may not be MCAP files.
 
@@ -399,18 +428,17 @@ def recover_note(logs: Sequence[str]) -> str | None:
     OptionError
         When no log of the batch is an MCAP file: the option applies to none of them.
     """
-    others = _others(logs, lambda found: found.recovers)
-    if not others:
+    counted = _counted_apart(
+        logs,
+        lambda found: found.recovers,
+        "--recover",
+        "an MCAP file",
+        "--recover reads only an unfinished or damaged MCAP file (sequentially, up to its "
+        "first bad record)",
+    )
+    if counted is None:
         return None
-    kinds = ", ".join(f"{count} {name}" for name, count in sorted(others.items()))
-    read = len(logs) - sum(others.values())
-    if read == 0:
-        raise OptionError(
-            f"--recover: no log of the batch is an MCAP file ({kinds}); --recover reads "
-            "only an unfinished or damaged MCAP file (sequentially, up to its first bad "
-            "record): leave it out"
-        )
-    rest = sum(others.values())
+    read, rest, kinds = counted
     return (
         f"--recover: applied to the {f'{read} MCAP files' if read > 1 else 'MCAP file'} of the "
         "batch; "
@@ -437,17 +465,16 @@ def header_time_note(logs: Sequence[str]) -> str | None:
         When every log of the batch is a table: the option applies to none of them (each
         log failed, and the reports of an earlier run were removed with it).
     """
-    others = _others(logs, lambda found: found.stamped)
-    if not others:
+    counted = _counted_apart(
+        logs,
+        lambda found: found.stamped,
+        "--time header",
+        "a bag or an MCAP file",
+        "a table's time column is the only time it has",
+    )
+    if counted is None:
         return None
-    kinds = ", ".join(f"{count} {name}" for name, count in sorted(others.items()))
-    read = len(logs) - sum(others.values())
-    if read == 0:
-        raise OptionError(
-            f"--time header: no log of the batch is a bag or an MCAP file ({kinds}); a "
-            "table's time column is the only time it has: leave it out"
-        )
-    rest = sum(others.values())
+    read, rest, kinds = counted
     stamped = f"{read} bags and MCAP files" if read > 1 else "bag or MCAP file"
     return f"--time header: applied to the {stamped} of the batch; " + (
         f"the other {rest} logs ({kinds}) are tables, read by their time column"
