@@ -8,6 +8,7 @@ whole number of at least 0 (:func:`check_seed`).
 
 from __future__ import annotations
 
+from decimal import Decimal
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -71,10 +72,18 @@ def check_run(model: HybridModel, rows: int, where: str, log_format: str | None)
     from hybridlog.io.bag_writers import times_before
 
     ends_before = LATEST_S if log_format is None else times_before(log_format)
-    end = (rows - 1) * model.dt
-    if end >= ends_before:
+    steps = rows - 1
+    # exact in Decimal: `steps * dt` of a --steps past 1.8e308 (a number of 400 digits)
+    # raised an unexpected OverflowError, converting the steps to a float
+    end = Decimal(steps) * Decimal(repr(float(model.dt)))
+    if end >= Decimal(repr(ends_before)):
+        count, ends = (
+            (f"{steps:,}", format_time(float(end)))
+            if steps < 10**18  # a count a user reads, a time a float holds
+            else (f"{Decimal(steps):.3e}", f"{end:.3e}")
+        )
         raise (OptionError if where.startswith("--") else ModelError)(
-            f"{where}: {rows - 1:,} steps of {model.dt:g} s end at t = {format_time(end)} s, later "
+            f"{where}: {count} steps of {model.dt:g} s end at t = {ends} s, later "
             f"than the log holds (times before {format_time(ends_before)} s); simulate fewer steps"
         )
     check_fits(

@@ -87,6 +87,25 @@ def test_a_run_ending_later_than_a_log_holds_is_refused_up_front(tmp_path, monke
         simulate(load_model(path))
 
 
+def test_a_run_past_a_float_is_refused_as_ending_too_late(tmp_path):
+    # --steps of 400 digits: `steps * dt` converted the steps to a float, an unexpected
+    # OverflowError; a model's schedule of such a count and a components model's too
+    from hybridlog.jobs.simulate import simulate_log
+
+    steps = 10**400 - 1
+    with pytest.raises(OptionError) as error:
+        simulate(load_model("three_tank_hstf"), steps=steps)
+    assert str(error.value) == (
+        "--steps: 1.000e+400 steps of 1 s end at t = 1.000e+400 s, later than the log holds "
+        "(times before 9200000000 s); simulate fewer steps"
+    )
+    with pytest.raises(OptionError, match=r"^--schedule: 1\.000e\+400 steps of 1 s end at"):
+        simulate(load_model("three_tank_hstf"), schedule=f"1:{steps}")
+    with pytest.raises(OptionError, match=r"^--steps: 1\.000e\+400 steps of 60 s end at"):
+        simulate_log("bioplex_pgc", tmp_path / "run.csv", steps=steps)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_run_ending_later_than_a_ros1_bag_holds_is_refused_before_simulating(
     tmp_path, monkeypatch
 ):
