@@ -3,7 +3,8 @@
 A run that ends later than its log holds (:data:`LATEST_S`, or its log format's own end) or
 does not fit in memory with what its log's writer holds (:func:`memory_needed`) is refused up
 front, naming the option or model key that set its steps (:func:`check_run`); a seed must be a
-whole number of at least 0 (:func:`check_seed`).
+whole number of at least 0 (:func:`check_seed`), a number of
+steps one of at least 1 (:func:`check_steps`).
 """
 
 from __future__ import annotations
@@ -97,6 +98,18 @@ def check_run(model: HybridModel, rows: int, where: str, log_format: str | None)
         remedy="simulate fewer steps",
         error=OptionError if where.startswith("--") else ModelError,
     )
+
+
+def check_steps(steps: object) -> int | None:
+    """``steps`` as an ``int`` or ``None``, refused unless it is a whole number of at least 1.
+
+    ``steps=2.5`` failed as numpy's TypeError deep in the run, ``steps=True`` ran one step.
+    """
+    if steps is None:
+        return None
+    if isinstance(steps, bool) or not isinstance(steps, int | np.integer) or steps <= 0:
+        raise OptionError("--steps: must be a positive integer")
+    return int(steps)
 
 
 def check_seed(seed: object) -> int:

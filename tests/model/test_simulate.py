@@ -34,6 +34,19 @@ def test_a_bad_seed_is_an_option_error(seed):
         simulate(load_model("three_tank_hstf"), steps=3, seed=seed)
 
 
+@pytest.mark.parametrize("steps", [0, -1, 2.5, True, "5", np.float64(3.0)])
+def test_bad_steps_are_an_option_error(steps, tmp_path):
+    # steps=2.5 failed as numpy's TypeError inside the run, steps=True ran one step, as
+    # `seed` is checked; a components model's run alike
+    from hybridlog.simulate_components import simulate_components
+
+    with pytest.raises(OptionError, match=r"^--steps: must be a positive integer$"):
+        simulate(load_model("three_tank_hstf"), steps=steps)
+    with pytest.raises(OptionError, match=r"^--steps: must be a positive integer$"):
+        simulate_components(load_model("bioplex_pgc"), steps=steps)
+    assert simulate(load_model("three_tank_hstf"), steps=np.int64(3)).time.shape == (4,)
+
+
 def test_more_steps_than_memory_are_refused_up_front_with_the_size(tmp_path):
     model = load_model("three_tank_hstf")
     # 15 values a row (t, mode, u, 3 outputs, 3 states, 6 noise draws), 8 messages
