@@ -75,7 +75,7 @@ from hybridlog.simulation_inputs import (
     sample_times,
     start_state,
 )
-from hybridlog.simulation_limits import check_run, check_seed
+from hybridlog.simulation_limits import check_run, check_seed, check_steps
 from hybridlog.simulation_range import check_columns, noise_reaching
 from hybridlog.simulation_schedule import impossible_switches, mode_sequence
 from hybridlog.times import format_time
@@ -256,6 +256,7 @@ def simulate(
         ``noise`` on a model whose file gives no measurement noise covariance.
     """
     seed = check_seed(seed)
+    steps = check_steps(steps)
     origin = model_origin(model)
     if model.is_continuous:
         model.check_supported("simulate", continuous=True, jumps=True)
@@ -286,8 +287,6 @@ def simulate(
                 f"--schedule: {origin} switches by its mode guards (modes.<id>.guard); "
                 "a schedule does not apply"
             )
-        if steps is not None and steps <= 0:
-            raise OptionError("--steps: must be positive")
         rows = (steps or 100) + 1
         check_run(model, rows, "--steps", log_format)
         modes = np.zeros(rows, dtype=np.int64)
@@ -299,8 +298,6 @@ def simulate(
             parsed = parse_schedule(model.simulation_schedule, model.mode_ids, where=where)
         else:
             parsed = [(0, steps or 100)]
-        if steps is not None and steps <= 0:
-            raise OptionError("--steps: must be positive")
         if steps is not None:
             check_run(model, steps + 1, "--steps", log_format)
         else:

@@ -189,10 +189,11 @@ def simulate_components(
         measured output without a measurement noise covariance in the model file.
     """
     from hybridlog.simulation_inputs import sample_times, start_state
-    from hybridlog.simulation_limits import check_run, check_seed
+    from hybridlog.simulation_limits import check_run, check_seed, check_steps
     from hybridlog.simulation_range import out_of_range, within_range
 
     seed = check_seed(seed)
+    steps = check_steps(steps)
     origin = model_origin(model)
     scenario = model.scenario
     if not model.has_components or scenario is None:
@@ -200,8 +201,6 @@ def simulate_components(
     model.require_measurement_noise("simulate draws the outputs' measurement noise")
     at = scenario_settings(model, scenario, settings)
     values = at.values
-    if steps is not None and steps <= 0:
-        raise OptionError("--steps: must be positive")
     n_steps = steps or scenario.steps or 100
     rows = n_steps + 1
     where = "--steps" if steps else f"{origin}: simulation.steps"

@@ -3,11 +3,13 @@
 A run that ends later than its log holds (:data:`LATEST_S`, or its log format's own end) or
 does not fit in memory with what its log's writer holds (:func:`memory_needed`) is refused up
 front, naming the option or model key that set its steps (:func:`check_run`); a seed must be a
-whole number of at least 0 (:func:`check_seed`).
+whole number of at least 0 (:func:`check_seed`), a number of
+steps one of at least 1 (:func:`check_steps`).
 """
 
 from __future__ import annotations
 
+from decimal import Decimal
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -71,10 +73,18 @@ def check_run(model: HybridModel, rows: int, where: str, log_format: str | None)
     from hybridlog.io.bag_writers import times_before
 
     ends_before = LATEST_S if log_format is None else times_before(log_format)
-    end = (rows - 1) * model.dt
-    if end >= ends_before:
+    steps = rows - 1
+    # exact in Decimal: `steps * dt` of a --steps past 1.8e308 (a number of 400 digits)
+    # raised an unexpected OverflowError, converting the steps to a float
+    end = Decimal(steps) * Decimal(repr(float(model.dt)))
+    if end >= Decimal(repr(ends_before)):
+        count, ends = (
+            (f"{steps:,}", format_time(float(end)))
+            if steps < 10**18  # a count a user reads, a time a float holds
+            else (f"{Decimal(steps):.3e}", f"{end:.3e}")
+        )
         raise (OptionError if where.startswith("--") else ModelError)(
-            f"{where}: {rows - 1:,} steps of {model.dt:g} s end at t = {format_time(end)} s, later "
+            f"{where}: {count} steps of {model.dt:g} s end at t = {ends} s, later "
             f"than the log holds (times before {format_time(ends_before)} s); simulate fewer steps"
         )
     check_fits(
@@ -88,6 +98,18 @@ def check_run(model: HybridModel, rows: int, where: str, log_format: str | None)
         remedy="simulate fewer steps",
         error=OptionError if where.startswith("--") else ModelError,
     )
+
+
+def check_steps(steps: object) -> int | None:
+    """``steps`` as an ``int`` or ``None``, refused unless it is a whole number of at least 1.
+
+    ``steps=2.5`` failed as numpy's TypeError deep in the run, ``steps=True`` ran one step.
+    """
+    if steps is None:
+        return None
+    if isinstance(steps, bool) or not isinstance(steps, int | np.integer) or steps <= 0:
+        raise OptionError("--steps: must be a positive integer")
+    return int(steps)
 
 
 def check_seed(seed: object) -> int:

@@ -168,10 +168,12 @@ class StepValues:
             return step
         value = self.values[step]
         if value < 0 or value != int(value):
+            # every digit it takes: 900.0000000000001 was said "900", a whole number
+            shown = f"{value:g}" if float(f"{value:g}") == value else repr(value)
             raise self.error(
                 (step,),
                 key,
-                f"{step} = {value:g} is used as a step; it must be a whole number >= 0",
+                f"{step} = {shown} is used as a step; it must be a whole number >= 0",
             )
         return int(value)
 

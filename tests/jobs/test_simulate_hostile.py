@@ -43,6 +43,18 @@ def test_times_off_whole_nanoseconds_are_refused_for_message_logs(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["tank.toml"]
 
 
+def test_a_time_off_whole_nanoseconds_is_shown_with_its_fraction(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``dt = 2.5e-9``: "t = 0.000000018 s is 0.5 ns off the whole nanoseconds", a time
+    rounded to the nanosecond it was said to be off."""
+    model = _tank(tmp_path, "2.5e-9")
+    args = ["simulate", str(model), "--out", str(tmp_path / "run.mcap"), "--steps", "10"]
+    code, output = _run(args, capsys)
+    assert code == 2, output
+    assert ": t = 0.0000000175 s is 0.5 ns off the whole nanoseconds" in output, output
+
+
 @pytest.mark.parametrize(("dt", "out"), [("1.5e-9", "run.csv"), ("2e-9", "run.mcap")])
 def test_times_a_log_holds_are_written(
     dt: str, out: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]

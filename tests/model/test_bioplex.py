@@ -296,6 +296,12 @@ def _replace(old, new):
         # file is loaded (`hybridlog models FILE` called it valid, and simulate refused it)
         ("light_fault = 900", "light_fault = 900.5", r"ls: light_fault = 900\.5 is used as a st"),
         ("light_fault = 900", "light_fault = -900", r"ls: light_fault = -900 is used as a step"),
+        # not rounded to a whole number by the message: "light_fault = 900 is used as a step"
+        (
+            "light_fault = 900",
+            "light_fault = 900.0000000000001",
+            r"ls: light_fault = 900\.0000000000001 is used as a step",
+        ),
         ("light_repair = 1300", "light_repair = 800", r"ls: the steps must increase \(light_f"),
         ('fr1_cmd = "1"', 'fr1_cmd = "1, 0@5, 1@5"', r"fr1_cmd: the steps must increase \(5 t"),
         ("drift_end = 1100", "drift_end = 600", r"unmodelled\[0\]: end \(drift_end = 600\) mus"),

@@ -34,6 +34,19 @@ def test_a_bad_seed_is_an_option_error(seed):
         simulate(load_model("three_tank_hstf"), steps=3, seed=seed)
 
 
+@pytest.mark.parametrize("steps", [0, -1, 2.5, True, "5", np.float64(3.0)])
+def test_bad_steps_are_an_option_error(steps, tmp_path):
+    # steps=2.5 failed as numpy's TypeError inside the run, steps=True ran one step, as
+    # `seed` is checked; a components model's run alike
+    from hybridlog.simulate_components import simulate_components
+
+    with pytest.raises(OptionError, match=r"^--steps: must be a positive integer$"):
+        simulate(load_model("three_tank_hstf"), steps=steps)
+    with pytest.raises(OptionError, match=r"^--steps: must be a positive integer$"):
+        simulate_components(load_model("bioplex_pgc"), steps=steps)
+    assert simulate(load_model("three_tank_hstf"), steps=np.int64(3)).time.shape == (4,)
+
+
 def test_more_steps_than_memory_are_refused_up_front_with_the_size(tmp_path):
     model = load_model("three_tank_hstf")
     # 15 values a row (t, mode, u, 3 outputs, 3 states, 6 noise draws), 8 messages
@@ -85,6 +98,25 @@ def test_a_run_ending_later_than_a_log_holds_is_refused_up_front(tmp_path, monke
     path.write_text(path.read_text().replace('schedule = "1:100,', 'schedule = "1:9800,'))
     with pytest.raises(ModelError, match=rf"^{path}: simulation\.schedule: 10,000 steps of"):
         simulate(load_model(path))
+
+
+def test_a_run_past_a_float_is_refused_as_ending_too_late(tmp_path):
+    # --steps of 400 digits: `steps * dt` converted the steps to a float, an unexpected
+    # OverflowError; a model's schedule of such a count and a components model's too
+    from hybridlog.jobs.simulate import simulate_log
+
+    steps = 10**400 - 1
+    with pytest.raises(OptionError) as error:
+        simulate(load_model("three_tank_hstf"), steps=steps)
+    assert str(error.value) == (
+        "--steps: 1.000e+400 steps of 1 s end at t = 1.000e+400 s, later than the log holds "
+        "(times before 9200000000 s); simulate fewer steps"
+    )
+    with pytest.raises(OptionError, match=r"^--schedule: 1\.000e\+400 steps of 1 s end at"):
+        simulate(load_model("three_tank_hstf"), schedule=f"1:{steps}")
+    with pytest.raises(OptionError, match=r"^--steps: 1\.000e\+400 steps of 60 s end at"):
+        simulate_log("bioplex_pgc", tmp_path / "run.csv", steps=steps)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_run_ending_later_than_a_ros1_bag_holds_is_refused_before_simulating(
