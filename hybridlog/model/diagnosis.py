@@ -417,13 +417,17 @@ def _linearise(
 def _slopes(
     expression: sympy.Expr, x: Sequence[sympy.Symbol], point: Mapping[sympy.Symbol, sympy.Float]
 ) -> list[complex]:
-    """``∂expression/∂x`` at ``point``; NaN where undefined there (0/0, a Piecewise gap)."""
+    """``∂expression/∂x`` at ``point``; NaN where undefined or unevaluable there.
+
+    Undefined: 0/0, a Piecewise gap; unevaluable: beyond what mpmath holds
+    (``exp(exp(exp(100*x)))``, an OverflowError).
+    """
     (row,) = jacobian([expression], x)
     values = []
     for entry in row:
         try:
             values.append(complex(entry.xreplace(point).evalf()))
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             values.append(complex(np.nan))
     return values
 
