@@ -840,7 +840,17 @@ class _Converter:
             )
         if operator is None:
             raise self.fail(f"comparison {type(node.ops[0]).__name__}")
-        return operator(self.value(node.left), self.value(node.comparators[0]))
+        left, right = self.value(node.left), self.value(node.comparators[0])
+        # sympy decides a comparison of constants by evaluating them to ever more digits:
+        # one beyond float64 (x > exp(exp(exp(100)))) ran for minutes, the check below never
+        # reached
+        overflow = _overflow(left) or _overflow(right)
+        if overflow:
+            raise ValueError(
+                f"{excerpt(ast.unparse(node), 40)} is not finite in double precision "
+                f"({overflow} overflows)"
+            )
+        return operator(left, right)
 
     def call(self, node: ast.Call) -> sympy.Expr:
         if not isinstance(node.func, ast.Name):

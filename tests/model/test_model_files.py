@@ -383,6 +383,12 @@ def test_a_complex_value_names_the_parameters_of_the_part_that_made_it() -> None
         ("theta*1e200*1e200", r"not finite in double precision \('1\.0+e\+400' overflows\)"),
         ("theta + exp(1000)", r"not finite in double precision \('exp\(1000\)' overflows\)"),
         ("max(theta, 1e308*10)", "not finite in double precision"),
+        # compared, sympy evaluated it to ever more digits: minutes, the check never reached
+        (
+            "Piecewise(theta, theta > exp(exp(exp(100))), 0)",
+            r"'theta > exp\(exp\(exp\(100\)\)\)' is not finite in double precision "
+            r"\('exp\(exp\(100\)\)' overflows\)",
+        ),
         # nor a lower one: these became 0.0 (or lost digits) in the compiled code
         ("theta*1e-200*1e-200", r"'1\.000e-400' is below 2\.225e-308 and would be 0\.0\)"),
         ("theta + exp(-1000)", r"'exp\(-1000\)' is below 2\.225e-308 and would be 0\.0"),
