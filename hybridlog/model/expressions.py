@@ -847,7 +847,8 @@ class _Converter:
         overflow = _overflow(left) or _overflow(right)
         if overflow:
             raise ValueError(
-                f"{excerpt(ast.unparse(node), 40)} is not finite in double precision "
+                f"{excerpt(self.segment(node) or ast.unparse(node), 40)} is not finite in "
+                "double precision "
                 f"({overflow} overflows)"
             )
         return operator(left, right)
