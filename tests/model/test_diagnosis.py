@@ -120,6 +120,11 @@ def test_a_slope_beyond_every_float_at_the_initial_state_says_nothing_of_it() ->
     """
     text = discrete(1, '[modes.a]\nf = ["exp(exp(exp(100*x1)))"]\nh = ["x1"]\n')
     assert diagnoses(text.replace("state = [0.0]", "state = [1.0]")) == ()
+    # put into the expression, x1 = 20 made sympy evaluate exp(exp(4.9e8)) exactly: minutes
+    text = discrete(
+        1, '[modes.a]\nf = ["Piecewise(exp(exp(exp(x1))), x1 > 1e6, x1)"]\nh = ["x1"]\n'
+    )
+    assert diagnoses(text.replace("state = [0.0]", "state = [20.0]")) == ()
 
 
 def test_an_undamped_component_without_process_noise_is_noted() -> None:
