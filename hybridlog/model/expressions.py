@@ -30,7 +30,7 @@ from typing import Any
 import sympy
 
 from hybridlog.errors import ModelError, excerpt
-from hybridlog.model.toml_text import held_digits, key_path, unheld_number
+from hybridlog.model.toml_text import PLAIN_KEY_LIMIT, held_digits, key_path, unheld_number
 
 _CONDITIONS = (
     sympy.core.relational.Relational,
@@ -110,10 +110,13 @@ def symbol_name_problem(name: str) -> str | None:
     the grammar already uses (``sqrt``, ``pi``, ``t``): either would make every expression
     that uses it fail to parse or mean something else.  It must also be in Unicode NFKC
     form: the parser reads ``ﬁ`` (a ligature) as ``fi``, so with states ``fi`` and ``ﬁ``
-    an expression naming ``ﬁ`` would silently mean ``fi``.
+    an expression naming ``ﬁ`` would silently mean ``fi``.  And it is at most
+    :data:`~hybridlog.model.toml_text.PLAIN_KEY_LIMIT` (64) characters long, as a mode id is.
     """
     if not name.isidentifier():
         return "is not a valid symbol name (letters, digits and _, not starting with a digit)"
+    if len(name) > PLAIN_KEY_LIMIT:  # echoed whole in messages and table columns
+        return f"is longer than {PLAIN_KEY_LIMIT} characters, as a symbol name may be"
     normal = unicodedata.normalize("NFKC", name)
     if normal != name:
         # Python's parser reads every name in NFKC form (PEP 3131), so an expression could

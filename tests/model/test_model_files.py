@@ -588,6 +588,14 @@ def test_real_roots_and_logs_of_variables_are_accepted(expression):
         ("l = 1.3", "exp = 1.3", r"parameters\.exp: 'exp' is a function or constant"),
         ("c = 0.2", "torque = 0.2", r"parameters\.torque: the name is already one of the inputs"),
         ("c = 0.2", "y_sin = 0.2", r"parameters\.y_sin: the name is already one of the outputs"),
+        # a name is echoed whole in messages ("no column for output '...'"): one of 3,000
+        # characters made lines of 1,000 (cut mid-word), as long as a mode id may be
+        (
+            'outputs = ["y_sin", "y_speed"]',
+            f'outputs = ["y_sin", "{"y" * 3000}"]',
+            r"outputs: 'y{26}…y{13}' is longer than 64 characters",
+        ),
+        ("l = 1.3", f"{'l' * 65} = 1.3", r"parameters\.'l{26}…l{13}': 'l{26}…l{13}' is longer"),
     ],
 )
 def test_names_the_grammar_cannot_use_are_refused_in_their_key(old, new, message):
