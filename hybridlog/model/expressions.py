@@ -844,17 +844,27 @@ class _Converter:
         if operator is None:
             raise self.fail(f"comparison {type(node.ops[0]).__name__}")
         left, right = self.value(node.left), self.value(node.comparators[0])
-        # sympy decides a comparison of constants by evaluating them to ever more digits:
-        # one beyond float64 (x > exp(exp(exp(100)))) ran for minutes, the check below never
-        # reached
-        overflow = _overflow(left) or _overflow(right)
+        return operator(*self.finite(node, (left, right)))
+
+    def finite(self, node: ast.expr, operands: Sequence[Any]) -> Sequence[Any]:
+        """``operands`` of the comparison or call ``node``, refused where one is beyond float64.
+
+        sympy decides a comparison of constants (``x > exp(exp(exp(100)))``, and inside
+        ``min``, ``max``, ``atan2``, ``exp(-...)``) by evaluating them to ever more digits: it
+        ran for minutes, the checks of :func:`parse_expression` never reached.
+
+        Raises
+        ------
+        ValueError
+            Naming ``node`` and the constant that overflows.
+        """
+        overflow = next((found for value in operands if (found := _overflow(value))), "")
         if overflow:
+            written = self.segment(node) or ast.unparse(node)
             raise ValueError(
-                f"{excerpt(self.segment(node) or ast.unparse(node), 40)} is not finite in "
-                "double precision "
-                f"({overflow} overflows)"
+                f"{excerpt(written, 40)} is not finite in double precision ({overflow} overflows)"
             )
-        return operator(left, right)
+        return operands
 
     def call(self, node: ast.Call) -> sympy.Expr:
         if not isinstance(node.func, ast.Name):
@@ -885,14 +895,18 @@ class _Converter:
             raise ModelError(f"{self.key}: {name} takes {wanted} ({given} given)")
         if name == "Piecewise":  # conditions at the odd positions, values elsewhere
             return function(
-                *(
-                    self.visit(arg)
-                    if position % 2 == 1 and position < given - 1
-                    else self.value(arg)
-                    for position, arg in enumerate(node.args)
+                *self.finite(
+                    node,
+                    [
+                        self.visit(arg)
+                        if position % 2 == 1 and position < given - 1
+                        else self.value(arg)
+                        for position, arg in enumerate(node.args)
+                    ],
                 )
             )
-        return self.real(node, function(*(self.value(arg) for arg in node.args)))
+        arguments = self.finite(node, [self.value(arg) for arg in node.args])
+        return self.real(node, function(*arguments))
 
     def _real_root(self, node: ast.BinOp, base: sympy.Expr, exponent: sympy.Expr) -> str:
         """How to write the real root ``node`` meant, where it is a negative number's odd root.

@@ -376,6 +376,13 @@ def test_a_complex_value_names_the_parameters_of_the_part_that_made_it() -> None
     )  # not q, which the refused part does not use
 
 
+_TOWER = (
+    r"'exp\(exp\(exp\(100\)\)\)' is not finite in double precision "
+    r"\('exp\(exp\(100\)\)' overflows\)"
+)
+"""How exp(exp(exp(100))) is refused: where it is built, its argument beyond float64."""
+
+
 @pytest.mark.parametrize(
     ("expression", "words"),
     [
@@ -383,11 +390,17 @@ def test_a_complex_value_names_the_parameters_of_the_part_that_made_it() -> None
         ("theta*1e200*1e200", r"not finite in double precision \('1\.0+e\+400' overflows\)"),
         ("theta + exp(1000)", r"not finite in double precision \('exp\(1000\)' overflows\)"),
         ("max(theta, 1e308*10)", "not finite in double precision"),
-        # compared, sympy evaluated it to ever more digits: minutes, the check never reached
-        (
-            "Piecewise(theta, theta > exp(exp(exp(100))), 0)",
-            r"'theta > exp\(exp\(exp\(100\)\)\)' is not finite in double precision "
-            r"\('exp\(exp\(100\)\)' overflows\)",
+        # compared (and inside min, max, atan2, exp of its negative), sympy evaluated such a
+        # constant to ever more digits: minutes, the checks never reached; refused where built
+        *(
+            (expression, _TOWER)
+            for expression in (
+                "Piecewise(theta, theta > exp(exp(exp(100))), 0)",
+                "theta*min(exp(exp(exp(100))), 1)",
+                "max(theta, exp(exp(exp(100))))",
+                "theta*atan2(exp(exp(exp(100))), 1)",
+                "theta*exp(-exp(exp(exp(100))))",
+            )
         ),
         # nor a lower one: these became 0.0 (or lost digits) in the compiled code
         ("theta*1e-200*1e-200", r"'1\.000e-400' is below 2\.225e-308 and would be 0\.0\)"),
