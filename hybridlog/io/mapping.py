@@ -63,7 +63,7 @@ from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from hybridlog.errors import LogError, OptionError
+from hybridlog.errors import LogError, OptionError, excerpt
 from hybridlog.io.source import FieldKey, closest_names, non_ascii
 
 TRUTH_PREFIX = "truth."
@@ -163,6 +163,8 @@ take one: ``/`` and a token of ASCII letters, digits and ``_`` not starting with
 any number of times (no empty token, no trailing ``/``)."""
 MAX_TOPIC_LENGTH = 247
 """Longest ROS 2 topic name (rmw's ``RMW_TOPIC_MAX_NAME_LENGTH``: 255 less 8 for prefixes)."""
+MAX_PATH_LENGTH = 255
+"""Longest ``--map`` path (a topic of :data:`MAX_TOPIC_LENGTH` and a short field, or a column)."""
 _TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*", re.ASCII)
 _GREEK = re.compile(r"GREEK (SMALL|CAPITAL) LETTER ([A-Z]+)")
 
@@ -315,13 +317,18 @@ def parse_maps(
         symbol, sep, path = item.partition("=")
         symbol = symbol.strip()
         if not sep or not symbol or not path.strip():
-            raise OptionError(f"--map {item!r}: expected SYMBOL=PATH, e.g. y=level")
+            raise OptionError(f"--map {excerpt(item)}: expected SYMBOL=PATH, e.g. y=level")
         if symbol not in valid:
             # a symbol that prints like a valid one ('у1', Cyrillic у) names its odd characters
             hint = f"; {non_ascii(symbol)}" if not symbol.isascii() else ""
             raise OptionError(
-                f"--map {item!r}: unknown symbol {symbol!r}{hint}; valid symbols: "
+                f"--map {excerpt(item)}: unknown symbol {excerpt(symbol)}{hint}; valid symbols: "
                 f"{', '.join(valid)}"
+            )
+        if len(path) > MAX_PATH_LENGTH:  # every message naming the field echoes it whole
+            raise OptionError(
+                f"--map {excerpt(item)}: the path has {len(path):,} characters; at most "
+                f"{MAX_PATH_LENGTH} (a ROS 2 topic name has at most {MAX_TOPIC_LENGTH})"
             )
         if symbol in parsed:
             raise OptionError(f"--map: symbol {symbol!r} is mapped twice")

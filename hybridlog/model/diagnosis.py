@@ -417,15 +417,21 @@ def _linearise(
 def _slopes(
     expression: sympy.Expr, x: Sequence[sympy.Symbol], point: Mapping[sympy.Symbol, sympy.Float]
 ) -> list[complex]:
-    """``∂expression/∂x`` at ``point``; NaN where undefined there (0/0, a Piecewise gap)."""
+    """``∂expression/∂x`` at ``point``; NaN where undefined there (0/0, a Piecewise gap).
+
+    Evaluated in float64, not by sympy: putting the point into ``exp(exp(exp(x)))`` made sympy
+    evaluate ``exp(exp(4.9e8))`` exactly, for minutes; in float64 it is inf, a slope that says
+    nothing.
+    """
     (row,) = jacobian([expression], x)
-    values = []
-    for entry in row:
+    names = list(point)
+    slopes = sympy.lambdify(names, row, modules="numpy")
+    with np.errstate(all="ignore"):
         try:
-            values.append(complex(entry.xreplace(point).evalf()))
-        except (TypeError, ValueError):
-            values.append(complex(np.nan))
-    return values
+            found = np.asarray(slopes(*(float(point[n]) for n in names)), dtype=np.complex128)
+        except (TypeError, ValueError, ArithmeticError, NameError):
+            return [complex(np.nan)] * len(row)
+    return [complex(v) for v in found.reshape(len(row))]
 
 
 def _system_unobservable(

@@ -30,7 +30,7 @@ from typing import Any
 import sympy
 
 from hybridlog.errors import ModelError, excerpt
-from hybridlog.model.toml_text import held_digits, key_path, unheld_number
+from hybridlog.model.toml_text import PLAIN_KEY_LIMIT, held_digits, key_path, unheld_number
 
 _CONDITIONS = (
     sympy.core.relational.Relational,
@@ -110,10 +110,13 @@ def symbol_name_problem(name: str) -> str | None:
     the grammar already uses (``sqrt``, ``pi``, ``t``): either would make every expression
     that uses it fail to parse or mean something else.  It must also be in Unicode NFKC
     form: the parser reads ``ﬁ`` (a ligature) as ``fi``, so with states ``fi`` and ``ﬁ``
-    an expression naming ``ﬁ`` would silently mean ``fi``.
+    an expression naming ``ﬁ`` would silently mean ``fi``.  And it is at most
+    :data:`~hybridlog.model.toml_text.PLAIN_KEY_LIMIT` (64) characters long, as a mode id is.
     """
     if not name.isidentifier():
         return "is not a valid symbol name (letters, digits and _, not starting with a digit)"
+    if len(name) > PLAIN_KEY_LIMIT:  # echoed whole in messages and table columns
+        return f"is longer than {PLAIN_KEY_LIMIT} characters, as a symbol name may be"
     normal = unicodedata.normalize("NFKC", name)
     if normal != name:
         # Python's parser reads every name in NFKC form (PEP 3131), so an expression could
@@ -840,7 +843,28 @@ class _Converter:
             )
         if operator is None:
             raise self.fail(f"comparison {type(node.ops[0]).__name__}")
-        return operator(self.value(node.left), self.value(node.comparators[0]))
+        left, right = self.value(node.left), self.value(node.comparators[0])
+        return operator(*self.finite(node, (left, right)))
+
+    def finite(self, node: ast.expr, operands: Sequence[Any]) -> Sequence[Any]:
+        """``operands`` of the comparison or call ``node``, refused where one is beyond float64.
+
+        sympy decides a comparison of constants (``x > exp(exp(exp(100)))``, and inside
+        ``min``, ``max``, ``atan2``, ``exp(-...)``) by evaluating them to ever more digits: it
+        ran for minutes, the checks of :func:`parse_expression` never reached.
+
+        Raises
+        ------
+        ValueError
+            Naming ``node`` and the constant that overflows.
+        """
+        overflow = next((found for value in operands if (found := _overflow(value))), "")
+        if overflow:
+            written = self.segment(node) or ast.unparse(node)
+            raise ValueError(
+                f"{excerpt(written, 40)} is not finite in double precision ({overflow} overflows)"
+            )
+        return operands
 
     def call(self, node: ast.Call) -> sympy.Expr:
         if not isinstance(node.func, ast.Name):
@@ -871,14 +895,18 @@ class _Converter:
             raise ModelError(f"{self.key}: {name} takes {wanted} ({given} given)")
         if name == "Piecewise":  # conditions at the odd positions, values elsewhere
             return function(
-                *(
-                    self.visit(arg)
-                    if position % 2 == 1 and position < given - 1
-                    else self.value(arg)
-                    for position, arg in enumerate(node.args)
+                *self.finite(
+                    node,
+                    [
+                        self.visit(arg)
+                        if position % 2 == 1 and position < given - 1
+                        else self.value(arg)
+                        for position, arg in enumerate(node.args)
+                    ],
                 )
             )
-        return self.real(node, function(*(self.value(arg) for arg in node.args)))
+        arguments = self.finite(node, [self.value(arg) for arg in node.args])
+        return self.real(node, function(*arguments))
 
     def _real_root(self, node: ast.BinOp, base: sympy.Expr, exponent: sympy.Expr) -> str:
         """How to write the real root ``node`` meant, where it is a negative number's odd root.

@@ -76,12 +76,7 @@ def unheld_number(literal: str, value: float) -> str:
     if mantissa in ("inf", "nan"):
         return ""
     if isinstance(value, int):
-        if abs(value) > _LARGEST:
-            digits = len(mantissa.replace("_", "").lstrip("0"))
-            return (
-                f"a whole number of {digits} digits is beyond the largest double ({_LARGEST:.4g})"
-            )
-        return ""
+        return _beyond_doubles(value) if abs(value) > _LARGEST else ""
     if abs(value) == float("inf"):
         return f"{excerpt(literal, 40)} is beyond the largest double ({_LARGEST:.4g})"
     if any(c in "123456789" for c in mantissa) and abs(value) < _SMALLEST:
@@ -91,6 +86,32 @@ def unheld_number(literal: str, value: float) -> str:
             "number"
         )
     return ""
+
+
+def _beyond_doubles(value: int) -> str:
+    """Why the integer ``value``, beyond the largest double, is refused."""
+    try:
+        digits = f"{len(str(abs(value))):,}"
+    except ValueError:  # more digits than str() writes (sys.get_int_max_str_digits): 0x...
+        digits = f"more than {sys.get_int_max_str_digits():,}"
+    return f"a whole number of {digits} digits is beyond the largest double ({_LARGEST:.4g})"
+
+
+def _long_integer(text: str, err: ValueError) -> str:
+    """``line N: ...`` for the decimal literal of more digits than int() reads (4,300).
+
+    tomllib raises a plain ValueError for it, with neither line nor key.
+    """
+    most = sys.get_int_max_str_digits()
+    found = re.search(rf"(?<![\w.])\d(?:_?\d){{{most},}}(?![\w.])", text) if most else None
+    if found is None:
+        return f"invalid TOML: {excerpt(str(err), 120)}"
+    digits = len(found.group().replace("_", "").lstrip("0"))
+    line = text.count("\n", 0, found.start()) + 1
+    return (
+        f"line {line}: a whole number of {digits:,} digits is beyond the largest double "
+        f"({_LARGEST:.4g})"
+    )
 
 
 def _parse_float(literal: str) -> float:
@@ -128,6 +149,8 @@ def read_toml(text: str) -> dict[str, Any]:
         data = tomllib.loads(text.removeprefix("\ufeff"), parse_float=_parse_float)
     except tomllib.TOMLDecodeError as err:
         raise ModelError(_decode_error(text, err)) from err
+    except ValueError as err:  # an integer literal of more digits than int() reads
+        raise ModelError(_long_integer(text, err)) from err
     except RecursionError as err:  # arrays or inline tables nested thousands deep
         raise ModelError(
             f"invalid TOML: arrays or tables nested too deeply (a model file nests at most "
@@ -214,7 +237,7 @@ def _check_values(data: dict[str, Any]) -> None:
         elif isinstance(value, _Unheld):
             raise ModelError(f"{_where(trail)}: {unheld_number(value.literal, float(value))}")
         elif isinstance(value, int) and not isinstance(value, bool) and abs(value) > _LARGEST:
-            raise ModelError(f"{_where(trail)}: {unheld_number(str(value), value)}")
+            raise ModelError(f"{_where(trail)}: {_beyond_doubles(value)}")
 
 
 def _where(trail: _Trail) -> str:

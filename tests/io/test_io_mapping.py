@@ -48,6 +48,25 @@ def test_parse_maps_rejects(maps: list[str], pattern: str) -> None:
         parse_maps(maps, **SYMBOLS)
 
 
+@pytest.mark.parametrize(
+    ("maps", "pattern"),
+    [
+        # every message naming the path echoed it whole: --map u1=<3,000 characters> gave
+        # a line cut at 1,000 in the middle of the path
+        ([f"u1={'x' * 3000}"], r"^--map 'u1=x+…x+': the path has 3,000 characters; at most 255"),
+        ([f"u1={'x' * 256}"], r"^--map 'u1=x+…x+': the path has 256 characters; at most 255"),
+        (["x" * 3000], r"^--map 'x+…x+': expected SYMBOL=PATH"),
+        ([f"{'x' * 3000}=y"], r"^--map 'x+…x+=y': unknown symbol 'x+…x+';"),
+    ],
+)
+def test_parse_maps_rejects_a_long_path_and_shows_long_text_cut(
+    maps: list[str], pattern: str
+) -> None:
+    with pytest.raises(OptionError, match=pattern) as refused:
+        parse_maps(maps, **SYMBOLS)
+    assert len(str(refused.value)) < 300
+
+
 def test_resolution_order() -> None:
     fields = ("u1", "u2", "cmd2", "y", "level", "mode", "phase", "h2", "tank1")
     chosen = resolve_signal_map(

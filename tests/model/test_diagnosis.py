@@ -112,6 +112,21 @@ def test_a_nonlinear_model_is_judged_by_structure_and_by_its_linearisation_said_
     assert diagnoses(moved) == (structural,)
 
 
+def test_a_slope_beyond_every_float_at_the_initial_state_says_nothing_of_it() -> None:
+    """``exp(exp(exp(100*x1)))``'s slope at x1 = 1 overflows mpmath's evaluation itself.
+
+    Before, ``hybridlog models`` died with "unexpected OverflowError in diagnosis.py" (exit 2,
+    but called a bug); a slope no float holds is not finite: the linearisation says nothing.
+    """
+    text = discrete(1, '[modes.a]\nf = ["exp(exp(exp(100*x1)))"]\nh = ["x1"]\n')
+    assert diagnoses(text.replace("state = [0.0]", "state = [1.0]")) == ()
+    # put into the expression, x1 = 20 made sympy evaluate exp(exp(4.9e8)) exactly: minutes
+    text = discrete(
+        1, '[modes.a]\nf = ["Piecewise(exp(exp(exp(x1))), x1 > 1e6, x1)"]\nh = ["x1"]\n'
+    )
+    assert diagnoses(text.replace("state = [0.0]", "state = [20.0]")) == ()
+
+
 def test_an_undamped_component_without_process_noise_is_noted() -> None:
     rotation = "[modes.a]\nA = [[0.6, -0.8], [0.8, 0.6]]\nB = [0.0, 1.0]\nC = [1.0, 0.0]\n"
     assert diagnoses(discrete(2, rotation, noise="0.0")) == (

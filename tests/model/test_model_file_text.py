@@ -62,6 +62,23 @@ def test_a_number_beyond_the_largest_double_is_refused_naming_its_key(old, new, 
 
 
 @pytest.mark.parametrize(
+    ("old", "new", "what"),
+    [
+        # tomllib's int() refuses a decimal literal of more than 4,300 digits (ValueError
+        # "Exceeds the limit ... for integer string conversion"), before any key is known
+        ("dt = 0.1", "dt = 1" + "0" * 5000, "line 3: a whole number of 5,001 digits"),
+        ("state = [0.5, -0.2]", "state = [0.5, -1" + "_0" * 4400 + "]", "line 25: a whole"),
+        # a hex literal int() reads, but whose decimal digits str() refuses to write
+        ("dt = 0.1", "dt = 0x" + "f" * 4000, "dt: a whole number of more than 4,300 digits"),
+    ],
+)
+def test_an_integer_of_more_digits_than_python_converts_is_refused_naming_its_line(old, new, what):
+    # Before: "unexpected ValueError in toml_text.py" (a bug, exit 2) for both
+    message = _refused(_replace(LINEAR_TWO_MODE, old, new), re.escape(what))
+    assert "is beyond the largest double" in message and len(message) < 300
+
+
+@pytest.mark.parametrize(
     ("expression", "written"), [("1e-400*u", "'1e-400'"), (f"{BIG}*u", "a whole number")]
 )
 def test_an_expression_number_no_double_holds_is_refused(expression, written):

@@ -376,6 +376,13 @@ def test_a_complex_value_names_the_parameters_of_the_part_that_made_it() -> None
     )  # not q, which the refused part does not use
 
 
+_TOWER = (
+    r"'exp\(exp\(exp\(100\)\)\)' is not finite in double precision "
+    r"\('exp\(exp\(100\)\)' overflows\)"
+)
+"""How exp(exp(exp(100))) is refused: where it is built, its argument beyond float64."""
+
+
 @pytest.mark.parametrize(
     ("expression", "words"),
     [
@@ -383,6 +390,18 @@ def test_a_complex_value_names_the_parameters_of_the_part_that_made_it() -> None
         ("theta*1e200*1e200", r"not finite in double precision \('1\.0+e\+400' overflows\)"),
         ("theta + exp(1000)", r"not finite in double precision \('exp\(1000\)' overflows\)"),
         ("max(theta, 1e308*10)", "not finite in double precision"),
+        # compared (and inside min, max, atan2, exp of its negative), sympy evaluated such a
+        # constant to ever more digits: minutes, the checks never reached; refused where built
+        *(
+            (expression, _TOWER)
+            for expression in (
+                "Piecewise(theta, theta > exp(exp(exp(100))), 0)",
+                "theta*min(exp(exp(exp(100))), 1)",
+                "max(theta, exp(exp(exp(100))))",
+                "theta*atan2(exp(exp(exp(100))), 1)",
+                "theta*exp(-exp(exp(exp(100))))",
+            )
+        ),
         # nor a lower one: these became 0.0 (or lost digits) in the compiled code
         ("theta*1e-200*1e-200", r"'1\.000e-400' is below 2\.225e-308 and would be 0\.0\)"),
         ("theta + exp(-1000)", r"'exp\(-1000\)' is below 2\.225e-308 and would be 0\.0"),
@@ -582,6 +601,14 @@ def test_real_roots_and_logs_of_variables_are_accepted(expression):
         ("l = 1.3", "exp = 1.3", r"parameters\.exp: 'exp' is a function or constant"),
         ("c = 0.2", "torque = 0.2", r"parameters\.torque: the name is already one of the inputs"),
         ("c = 0.2", "y_sin = 0.2", r"parameters\.y_sin: the name is already one of the outputs"),
+        # a name is echoed whole in messages ("no column for output '...'"): one of 3,000
+        # characters made lines of 1,000 (cut mid-word), as long as a mode id may be
+        (
+            'outputs = ["y_sin", "y_speed"]',
+            f'outputs = ["y_sin", "{"y" * 3000}"]',
+            r"outputs: 'y{26}…y{13}' is longer than 64 characters",
+        ),
+        ("l = 1.3", f"{'l' * 65} = 1.3", r"parameters\.'l{26}…l{13}': 'l{26}…l{13}' is longer"),
     ],
 )
 def test_names_the_grammar_cannot_use_are_refused_in_their_key(old, new, message):
