@@ -78,14 +78,13 @@ def check_run(model: HybridModel, rows: int, where: str, log_format: str | None)
     # raised an unexpected OverflowError, converting the steps to a float
     end = Decimal(steps) * Decimal(repr(float(model.dt)))
     if end >= Decimal(repr(ends_before)):
-        count, ends = (
-            (f"{steps:,}", format_time(float(end)))
-            if steps < 10**18  # a count a user reads, a time a float holds
-            else (f"{Decimal(steps):.3e}", f"{end:.3e}")
-        )
+        # a count a user reads, and an end a float holds; past them, neither is written out
+        readable = steps < 10**18
+        count = f"{steps:,}" if readable else f"{Decimal(steps):.3e}"
+        ends = f"at t = {format_time(float(end))} s, later" if readable else "later"
         raise (OptionError if where.startswith("--") else ModelError)(
-            f"{where}: {count} steps of {model.dt:g} s end at t = {ends} s, later "
-            f"than the log holds (times before {format_time(ends_before)} s); simulate fewer steps"
+            f"{where}: {count} steps of {model.dt:g} s end {ends} than the log holds (times "
+            f"before {format_time(ends_before)} s); simulate fewer steps"
         )
     check_fits(
         [

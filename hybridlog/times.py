@@ -14,6 +14,7 @@ report.json, :func:`format_duration` for people.  A 0.51 s hold between two floa
 from __future__ import annotations
 
 import math
+from decimal import Decimal
 
 __all__ = ["format_duration", "format_time", "round_duration"]
 
@@ -39,12 +40,14 @@ def _fixed(seconds: float, decimals: int) -> str:
     return "0" if text in ("-0", "") else text
 
 
-def format_time(seconds: float | None) -> str:
+def format_time(seconds: float | None, *, below_ns: bool = False) -> str:
     """A time in fixed point, to the digits its float holds (at most the nanosecond).
 
     Near 1.7e9 s a float holds the microsecond (its spacing is 238 ns), so
     ``1700000101.01``; small times to the nanosecond, so ``0.2`` for 0.1999999999999993.
-    ``None`` is ``n/a``.
+    ``None`` is ``n/a``.  ``below_ns``: a time said to lie between whole nanoseconds, in
+    its float's shortest digits (``0.0000000175``, which the nanosecond wrote ``0.000000018``,
+    the very nanosecond it was said to be off).
 
     Examples
     --------
@@ -52,7 +55,12 @@ def format_time(seconds: float | None) -> str:
     '1700000101.01'
     >>> format_time(0.1999999999999993)
     '0.2'
+    >>> format_time(1.75e-08, below_ns=True)
+    '0.0000000175'
     """
+    if below_ns and seconds is not None and math.isfinite(seconds):
+        exponent = Decimal(repr(seconds)).as_tuple().exponent  # an int: the time is finite
+        return _fixed(seconds, max(0, -int(exponent)))
     return format_duration(seconds)
 
 

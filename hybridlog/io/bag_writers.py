@@ -436,10 +436,9 @@ def _check_times(path: PathLike, chosen: str, time: Any) -> None:
     worst = int(np.argmax(off))
     smallest = float(steps.min())
     if off[worst] > _NS_TOLERANCE * smallest:
-        # the time's shortest digits: format_time's nanoseconds showed 17.5 ns as a whole 18
-        shown = np.format_float_positional(time[worst], trim="-")
         raise OptionError(
-            f"{path}: t = {shown} s is {float(off[worst]) * 1e9:.2g} ns off "
+            f"{path}: t = {format_time(float(time[worst]), below_ns=True)} s is "
+            f"{float(off[worst]) * 1e9:.2g} ns off "
             f"the whole nanoseconds {what} holds its times in, too much for steps of "
             f"{smallest:.6g} s; use a dt of whole nanoseconds, or write a CSV or Parquet log"
         )
