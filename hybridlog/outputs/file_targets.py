@@ -194,8 +194,9 @@ def check_file_target(
     ------
     OutputError
         When the target is a folder or another file that is not a regular one (a device, a
-        pipe), is named as a folder (:func:`check_file_name`), exists and ``force`` is false
-        or it is not ``ours``, or cannot be created (:func:`check_creatable`).
+        pipe), is named as a folder (:func:`check_file_name`), exists and is not ``ours``
+        (said so, with or without ``force``) or ``force`` is false, or cannot be created
+        (:func:`check_creatable`).
     """
     check_file_name(target)
     check_followable(target)
@@ -208,11 +209,13 @@ def check_file_target(
             f"{shown_path(target)}: exists and is not a regular file (a device, pipe or socket); "
             "hybridlog never replaces one"
         )
-    if path_present(path) and not force:
-        raise OutputError(f"{shown_path(target)}: already exists (use --force to replace it)")
+    # a file --force would not replace is said so first: "use --force to replace it" was
+    # advised for a user's own file, which --force then refused
     if path_present(path) and not ours(path):
         raise OutputError(
             f"{shown_path(target)}: exists and hybridlog did not write it (or it changed since), "
             "so --force does not replace it; move it away or name another file"
         )
+    if path_present(path) and not force:
+        raise OutputError(f"{shown_path(target)}: already exists (use --force to replace it)")
     return path

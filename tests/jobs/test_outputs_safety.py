@@ -345,8 +345,7 @@ def test_unsafe_outputs_are_refused_and_nothing_changes(
     assert "\n" not in message
     if words == "theirs" and not force:
         words = "not empty"
-    if words == "did not write it" and not force:
-        words = "already exists (use --force"
+    # a file --force would not replace is said so without it too (it advised --force)
     assert words in message
     assert tree(ws) == before
 
@@ -518,7 +517,7 @@ def test_force_replaces_only_files_hybridlog_wrote_unchanged(tmp_path: Path) -> 
         ("run.bag", {"encoding": "cdr"}, OptionError, "--encoding cdr: only MCAP files"),
         ("bag", {"format": "ros2-mcap", "encoding": "json"}, OptionError, "only MCAP files"),
         ("run.mcap", {"encoding": "yaml"}, OptionError, "--encoding"),
-        ("exists.mcap", {}, OutputError, "already exists"),
+        ("exists.mcap", {}, OutputError, "exists and hybridlog did not write it"),
         ("exists.mcap", {"format": "ros2-mcap", "force": True}, OutputError, "not a directory"),
         # `--out folder` said "cannot tell the log format from suffix '(none)'"
         ("folder", {}, OptionError, "folder: is a folder; name the log in it (" + "{folder}"),
@@ -945,8 +944,9 @@ def test_cluster_names_its_default_plot_path_as_the_default(tmp_path: Path) -> N
     with pytest.raises(OutputError) as info:
         cluster_job.check_cluster_outputs(log, "double_cart_case1", out=out, plot=None, force=False)
     assert str(info.value) == (
-        f"the default plot path (--out with .png) {tmp_path / 'c.png'}: already exists (use "
-        "--force to replace it); --plot PATH writes the picture elsewhere"
+        f"the default plot path (--out with .png) {tmp_path / 'c.png'}: exists and hybridlog "
+        "did not write it (or it changed since), so --force does not replace it; move it away "
+        "or name another file; --plot PATH writes the picture elsewhere"
     )
     # the default is the log: "--plot c.png is the log c.png"
     with pytest.raises(OutputError, match=r"^the default plot path \(--out with \.png\) "):
@@ -957,7 +957,7 @@ def test_cluster_names_its_default_plot_path_as_the_default(tmp_path: Path) -> N
         cluster_job.check_cluster_outputs(
             log, "double_cart_case1", out=out, plot=tmp_path / "c.png", force=False
         )
-    assert str(given.value).startswith(f"{tmp_path / 'c.png'}: already exists")
+    assert str(given.value).startswith(f"{tmp_path / 'c.png'}: exists and hybridlog did not")
 
 
 def test_an_output_folder_that_is_a_link_is_refused_saying_so(tmp_path: Path) -> None:
