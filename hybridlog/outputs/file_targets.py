@@ -85,11 +85,7 @@ def path_too_long(target: Path, *, folder: bool = False) -> str | None:
     needed = len(os.fsencode(target)) + _TEMPORARY_OVERHEAD + (_ROOM_INSIDE if folder else 0)
     if needed <= limit:
         return None
-    inside = (
-        " with its temporary name and the files written in it"
-        if folder
-        else (" with its temporary name")
-    )
+    inside = " with its temporary name" + (" and the files written in it" if folder else "")
     return (
         f"{shown_path(target)}: the path is too long ({needed} bytes{inside}; at most {limit} here)"
     )
