@@ -34,6 +34,7 @@ import functools
 import hashlib
 import json
 import math
+import os
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -94,7 +95,7 @@ def load_model(
             raise ModelError(f"{path}: cannot read model file: {err}") from err
         except ModelError as err:
             raise ModelError(f"{path}: {err}") from err
-        return cached_model(text, origin=str(path), parameters=parameters)
+        return cached_model(text, origin=os.fspath(name_or_path), parameters=parameters)
     name = str(name_or_path)
     return cached_model(builtin_text(name), origin=name, parameters=parameters)
 
@@ -133,27 +134,21 @@ def load_model_set(name_or_path: str | Path, texts: Mapping[str, str]) -> Hybrid
 def model_file(name_or_path: str | Path) -> Path | None:
     """The model file ``name_or_path`` names, or ``None`` when it names a built-in.
 
-    A file of that path wins; else a built-in of that name, also beside a folder of its name
-    (an ``--out`` folder named after the model).
+    A file of that path; else a built-in of that name, also beside a folder of its name (an
+    ``--out`` folder named after the model).
 
     Raises
     ------
     ModelError
         When it names neither a file nor a built-in (a folder, a missing ``.toml`` file),
-        and when an empty file shadows the built-in of its name: ``hybridlog models
-        three_tank_hstf > three_tank_hstf`` has the shell create that file before the
-        command reads it, which was then refused as an empty model file, telling the user
-        to print the built-in they had asked for.
+        and when a built-in's bare name also names a file that does not hold that built-in
+        (:func:`_check_not_shadowing`; ``./NAME`` names the file alone).
     """
     path = Path(name_or_path)
     name = str(name_or_path)
     if path.is_file():
-        if name in builtin_names() and path.stat().st_size == 0:
-            raise ModelError(
-                f"{name}: an empty file of that name shadows the built-in model {name} (a "
-                "file of the path given wins): remove or rename the file; to save the "
-                f"built-in, write it to another name, e.g. hybridlog models {name} > {name}.toml"
-            )
+        if name in builtin_names():
+            _check_not_shadowing(path, name)
         return path
     if name in builtin_names():
         return None
@@ -165,6 +160,39 @@ def model_file(name_or_path: str | Path) -> Path | None:
     shown = excerpt(name)  # quoted where blanks would not show: '' or ' x'
     shown = shown if name.strip() != name or not name else shown[1:-1]
     raise ModelError(f"{shown}: neither a model file nor a built-in model (built-ins: {known})")
+
+
+def _check_not_shadowing(path: Path, name: str) -> None:
+    """Refuse a file that a built-in's bare name also names, unless it holds that built-in.
+
+    ``--model three_tank_hstf`` in a folder holding an edited copy named ``three_tank_hstf``
+    ran the copy, while the report said ``model: three_tank_hstf``, the built-in's name: two
+    models under one name, and which one ran was a guess the user could not see.  A file
+    with the built-in's own text (``hybridlog models NAME > NAME``) is the same model either
+    way; any other is refused, saying how to name each.  An empty one is the shell's file of
+    ``hybridlog models NAME > NAME``, made before the command read it.
+
+    Raises
+    ------
+    ModelError
+        The file is empty, unreadable or not the built-in's text.
+    """
+    save = f"hybridlog models {name} > {name}.toml"
+    try:
+        held = path.read_bytes()
+    except OSError as err:
+        raise ModelError(f"{name}: cannot read model file: {err.strerror or err}") from err
+    if not held:
+        raise ModelError(
+            f"{name}: an empty file of that name shadows the built-in model {name}: remove "
+            f"or rename the file; to save the built-in, write it to another name, e.g. {save}"
+        )
+    if held != builtin_text(name).encode("utf-8"):
+        raise ModelError(
+            f"{name}: names both the file {name} in the working folder and the built-in "
+            f"model {name}, which differ: give the file as ./{name} (or its full path), or "
+            "rename it to use the built-in"
+        )
 
 
 def cached_model(

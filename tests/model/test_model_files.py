@@ -15,6 +15,7 @@ from hybridlog.cli import main
 from hybridlog.errors import ModelError
 from hybridlog.estimators.common import noise_stacks
 from hybridlog.io import SignalSpec, load_signals, write_table
+from hybridlog.model.builtins import builtin_text
 from hybridlog.model.cache import model_file
 from hybridlog.model.expressions import parse_expression, previous_symbol
 from hybridlog.model.loader import load_model, parse_model
@@ -205,8 +206,27 @@ def test_an_empty_file_shadowing_a_builtin_says_so(tmp_path, monkeypatch):
     (tmp_path / "ice_clutch").touch()
     with pytest.raises(ModelError, match=r"^ice_clutch: an empty file of that name shadows the "):
         load_model("ice_clutch")
-    (tmp_path / "ice_clutch").write_text(LINEAR_TWO_MODE)  # a file of the name still wins
+
+
+def test_a_file_shadowing_a_builtin_is_refused_unless_it_holds_it(tmp_path, monkeypatch):
+    # --model ice_clutch beside an edited copy named ice_clutch ran the copy, while every
+    # report and message named the built-in: which model ran was a silent guess
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "ice_clutch").write_text(LINEAR_TWO_MODE)
+    for named in ("ice_clutch", Path("ice_clutch")):
+        with pytest.raises(
+            ModelError,
+            match=r"^ice_clutch: names both the file ice_clutch in the working folder and the "
+            r"built-in model ice_clutch, which differ: give the file as \./ice_clutch ",
+        ):
+            load_model(named)
+    mine = load_model("./ice_clutch")  # the file, named as one
+    assert mine.origin == "./ice_clutch"
+    assert mine.states == parse_model(LINEAR_TWO_MODE).states
+    assert load_model(tmp_path / "ice_clutch").origin == str(tmp_path / "ice_clutch")
+    (tmp_path / "ice_clutch").write_text(builtin_text("ice_clutch"))  # the built-in's own text
     assert model_file("ice_clutch") == Path("ice_clutch")
+    assert load_model("ice_clutch").states == load_model("./ice_clutch").states
 
 
 def test_parameter_override_changes_the_equations():
