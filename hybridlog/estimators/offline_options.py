@@ -61,10 +61,15 @@ def not_offered(
     the others why it has no offline pass (``Capabilities.no_smoothing``).
     """
     having = [e.name for e in estimators if offers(e, option, str(value))]
+    return f"{lacks(estimator, option, value)} (estimators that do: {', '.join(having) or 'none'})"
+
+
+def lacks(estimator: Estimator, option: str, value: object) -> str:
+    """``"does not offer it: <why>"``: :func:`not_offered` without the estimators that do.
+
+    For a note that names them already: ``compare``'s ``--set smooth=true reaches imm alone``.
+    """
     capabilities = estimator.capabilities
     argmax = option == MODE_SEQUENCE_OPTION and str(value) == "argmax"
     why = capabilities.mode_rule if argmax else capabilities.no_smoothing
-    return (
-        f"does not offer it{': ' + why if why else ''} "
-        f"(estimators that do: {', '.join(having) or 'none'})"
-    )
+    return f"does not offer it{': ' + why if why else ''}"

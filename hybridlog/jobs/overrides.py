@@ -30,6 +30,7 @@ from hybridlog.estimators.offline_options import (
     SMOOTH_OPTION,
     admits,
     choices,
+    lacks,
     not_offered,
     offers,
 )
@@ -264,7 +265,9 @@ def set_reach(model: HybridModel, prepared: Sequence[Prepared], overrides: Overr
     and the comparison then set a tuned hstf beside a default imm without a word.  One
     phrase per option that does not reach every estimator: those it reaches, then each
     left out and why (``--set rho=0.9 reaches hstf alone: imm has no option rho``; an
-    option it has but does not read there: ``on imm it has no effect: ...``).  The flags
+    offline pass's option says why the estimator has none, as its refusal does:
+    ``hstf does not offer it: ...``; an option it has but does not read there: ``on imm it
+    has no effect: ...``).  The flags
     (``--smooth``, ``--mode-sequence``) reach every estimator or are refused.
     """
     phrases: list[str] = []
@@ -276,7 +279,9 @@ def set_reach(model: HybridModel, prepared: Sequence[Prepared], overrides: Overr
         unread: list[str] = []
         for p in prepared:
             why = _inert(p.options, model).get(name)
-            if name not in {info.name for info in p.estimator.describe_options()}:
+            if name in OFFLINE_OPTIONS and not offers(p.estimator, name, str(value)):
+                unread.append(f"{p.name} {lacks(p.estimator, name, value)}")
+            elif name not in {info.name for info in p.estimator.describe_options()}:
                 lacking.append(p.name)
             elif why:
                 unread.append(f"on {p.name} it has no effect: {why}")

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hybridlog.estimators import get_estimator
+from hybridlog.estimators.offline_options import lacks, not_offered
 from hybridlog.jobs.compare import compare
 from hybridlog.jobs.overrides import parse_sets, prepare_estimators, set_reach
 from tests.cli.test_cli import run
@@ -31,9 +33,15 @@ def _reach(model: str | Path, names: list[str], sets: list[str]) -> list[str]:
 
 def test_an_option_some_estimators_lack_or_do_not_read_is_said(tmp_path: Path) -> None:
     assert _reach("three_tank_hstf", ["hstf", "imm"], ["rho=0.9"]) == [RHO]
-    assert _reach("three_tank_hstf", ["imm", "hstf"], ["smooth=true"]) == [
-        "--set smooth=true reaches imm alone: hstf has no option smooth"
-    ]
+    # an offline pass's option says why, as its refusal does (was "hstf has no option smooth")
+    hstf = get_estimator("hstf")
+    for sets in (["smooth=true"], ["mode_sequence=viterbi"], ["mode_sequence=argmax"]):
+        name, value = sets[0].split("=")
+        assert _reach("three_tank_hstf", ["imm", "hstf"], sets) == [
+            f"--set {name}={value} reaches imm alone: hstf {lacks(hstf, name, value)}"
+        ]
+        assert lacks(hstf, name, value).startswith("does not offer it: ")
+        assert not_offered(hstf, name, value, []).startswith(lacks(hstf, name, value))
     model = tmp_path / "cpha.toml"
     model.write_text(CPHA_EXAMPLE)
     assert _reach(model, ["imm", "unknown-mode"], ["beam=5"]) == [
