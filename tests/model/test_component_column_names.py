@@ -61,3 +61,24 @@ def test_mode_ids_joined_by_a_bar_that_spell_the_column_are_refused():
 def test_a_mode_named_unknown_dot_something_else_is_accepted():
     model = parse_model(ONE + _component("A", "unknown.Z", "x1", "y1"))
     assert model.components[0].mode_ids == ("unknown.Z", "other")
+
+
+def test_a_component_named_like_another_ones_filtered_column_is_named_plainly(tmp_path):
+    # kbest writes mode.A_filtered (the filter's mode of A) beside component A_filtered's
+    # mode.A_filtered; the refusal read "the filter's the estimator's column 'mode.A'"
+    from hybridlog.jobs.analysis import analyze
+
+    text = HEAD + _component("A", "a", "x1", "y1") + _component("A_filtered", "b", "x2", "y2")
+    model = tmp_path / "m.toml"
+    model.write_text(text, encoding="utf-8")
+    log = tmp_path / "log.csv"
+    rows = ["t,y1,y2", *(f"{k},{0.5**k},{0.9**k}" for k in range(40))]
+    log.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    out = tmp_path / "out"
+    with pytest.raises(ModelError) as caught:
+        analyze(log, model, estimator="unknown-mode", out_dir=out, mode_sequence="kbest")
+    assert str(caught.value).startswith(
+        "the timeline table: two columns would be named 'mode.A_filtered': the filter's column "
+        "'mode.A' and the estimator's column 'mode.A_filtered'; "
+    )
+    assert not out.exists()
