@@ -78,10 +78,7 @@ def summary_line(report: Report) -> str:
         f"{_part_of_the_outputs(report, 'fit')}, MSE {format_number(report.mse, '.4g')}"
         f"{_part_of_the_outputs(report, 'mse')}"
     )
-    scored_outputs = [o.samples for o in report.outputs.values() if o.samples is not None]
-    if scored_outputs and min(scored_outputs) < report.samples - 1:  # row 0 is the prior
-        # a VAF over 73 of 399 predictions read like the whole log's (a gap, a late start)
-        text += f" (over {min(scored_outputs):,} of {report.samples - 1:,} predicted samples)"
+    text += _predicted_samples_text(report)
     text += _mode_accuracy_text(report, percent(_percent(report.modes.accuracy), 1))
     scored = report.modes.samples
     if report.modes.accuracy is not None and scored is not None and scored < report.samples:
@@ -99,6 +96,26 @@ def summary_line(report: Report) -> str:
     if fallbacks is not None and fallbacks.samples:  # part of the "smoothed" estimate is not
         text += f"; {fallbacks.summary()}"
     return text
+
+
+def _predicted_samples_text(report: Report) -> str:
+    """`` (over 297 of 300 predicted samples)`` where the metrics are over part of the log.
+
+    A VAF over 73 of 399 predictions read like the whole log's (a gap, a late start).  The
+    count is over the outputs the means are over: an output scored on no sample (its metrics
+    n/a, which ``_part_of_the_outputs`` says) made the line read "MSE 5.816 (over 0 of 199
+    predicted samples)" for an MSE over 199 samples of the other output; and where the outputs
+    are scored on different counts (one of them not predicted while its component was
+    ``unknown``), the line gives the range, not the smallest as if it held for all.
+    """
+    counts = [o.samples for o in report.outputs.values() if o.samples]  # 0: n/a, named
+    predicted = report.samples - 1  # row 0 is the prior
+    if not counts or min(counts) >= predicted:
+        return ""
+    low, high = min(counts), max(counts)
+    if low == high:
+        return f" (over {low:,} of {predicted:,} predicted samples)"
+    return f" (over {low:,} to {high:,} of {predicted:,} predicted samples, by output)"
 
 
 _NAMED_OUTPUTS = 3

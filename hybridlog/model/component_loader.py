@@ -29,7 +29,7 @@ and the unknown mode's probability combine.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import sympy
@@ -151,6 +151,7 @@ def load_components(
         _refuse_missing_states(component)
         components.append(component)
     _refuse_close_settings(components)
+    _refuse_unknown_column_labels(components)
     used = set(owner)
     related: set[str] = set()  # used at step k by an algebraic equation
     for component in components:
@@ -173,6 +174,30 @@ def load_components(
                     "component, so no mode gives it a value (is its component missing?)"
                 )
     return tuple(components)
+
+
+def _refuse_unknown_column_labels(components: Sequence[Component]) -> None:
+    """Refuse mode ids whose joint mode's label is ``unknown.<component>``.
+
+    ``unknown-mode``'s timeline has a column ``p_<joint mode>`` per joint mode kept and
+    ``p_unknown.<component>`` per component: a one-component model with the mode id
+    ``unknown.A`` (or mode ids joined by ``|`` that spell it) gave two columns one name, and
+    the run ended in "unexpected ResultShapeError ... (a bug ...)" once that mode was kept.
+    """
+    for component in components:
+        label = f"{UNKNOWN}.{component.name}"
+        parts = label.split("|")
+        if len(parts) != len(components):
+            continue
+        if all(
+            part == UNKNOWN or part in c.mode_ids for part, c in zip(parts, components, strict=True)
+        ):
+            first = components[0]
+            raise ModelError(
+                f"{key_path(f'{first.key}.modes', parts[0])}: the joint mode {label!r} it makes "
+                f"is named like the column p_{label} of unknown-mode's timeline, the belief "
+                f"that component {component.name!r} is unknown; choose another mode id"
+            )
 
 
 def _refuse_missing_states(component: Component) -> None:

@@ -243,7 +243,8 @@ def timeline_table(result: EstimationResult, signals: AlignedSignals) -> Table:
             own = filtered_columns.get(column.name)
             if own is not None and own.labels:  # a component's mode: the filter's beside it
                 codes = own.values.astype(np.int64, copy=False)
-                table.labels(f"{column.name}_filtered", own.labels, codes, f"the filter's {what}")
+                filters = f"the filter's column {column.name!r}"  # not "the filter's the ..."
+                table.labels(f"{column.name}_filtered", own.labels, codes, filters)
         else:
             table.floats(column.name, column.values.astype(np.float64, copy=False), what)
     for name, truth in signals.truth_components.items():
