@@ -323,7 +323,7 @@ def simulate(
             noise=noise,
             disturbance=disturbance,
             force=force,
-            settings=sets,
+            sets=sets,
         )
     say(ctx, f"wrote {path_text(out)} ({plural(outcome.samples, 'sample')})")
     if not is_quiet(ctx):

@@ -46,7 +46,6 @@ OPTIONS = {
     "estimator": "--estimator",
     "estimators": "--estimators",
     "sets": "--set",
-    "settings": "--set",
     "fail_under": "--fail-under",
     "fail_over": "--fail-over",
     "table_format": "--table-format",

@@ -76,7 +76,7 @@ def simulate_log(
     noise: bool = True,
     disturbance: str | None = None,
     force: bool = False,
-    settings: Sequence[str] = (),
+    sets: Sequence[str] = (),
 ) -> SimulationOutcome:
     """Simulate ``model_ref`` and write the run to ``out`` with its true modes and states.
 
@@ -95,11 +95,11 @@ def simulate_log(
         ``"A,OMEGA"``: the :class:`~hybridlog.simulation_inputs.Disturbance` of paper 003 eq. (49).
     force:
         Replace an existing file, or a ROS 2 bag folder hybridlog wrote (never the model).
-    settings:
-        ``NAME=VALUE`` texts (``--set``): the model's ``[parameters]`` (the plant simulated
-        with other values: a model run beside the log then meets the mismatch), and the
-        scenario parameters of a components model (:mod:`hybridlog.model.scenario`), e.g. a
-        fault time or a drift rate.
+    sets:
+        ``NAME=VALUE`` texts (``--set``, named as ``analyze``, ``compare`` and ``batch``
+        name it): the model's ``[parameters]`` (the plant simulated with other values: a
+        model run beside the log then meets the mismatch), and the scenario parameters of a
+        components model (:mod:`hybridlog.model.scenario`), e.g. a fault time or a drift rate.
 
     Raises
     ------
@@ -108,7 +108,7 @@ def simulate_log(
     """
     arguments.path(model_ref, "model_ref")
     arguments.path(out, "out")
-    arguments.texts(settings, "settings")
+    arguments.texts(sets, "sets")
     arguments.text(log_format, "log_format", optional=True)
     arguments.text(schedule, "schedule", optional=True)
     arguments.text(disturbance, "disturbance", optional=True)
@@ -122,7 +122,7 @@ def simulate_log(
     inputs: list[tuple[str, PathLike]] = (
         [("model file", model_ref)] if Path(model_ref).is_file() else []
     )
-    texts = arguments.set_texts(settings)
+    texts = arguments.set_texts(sets)
     moved = {name: text for name, text in texts.items() if name in model.parameters}
     if moved:  # the plant simulated with other [parameters] values
         model = load_model_set(model_ref, moved)

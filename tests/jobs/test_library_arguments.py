@@ -74,8 +74,8 @@ CALLS = {
         "jobs (--jobs): expected an int, got the str '2'",
     ),
     "simulate settings one string": (
-        lambda out: simulate_log(MODEL, out / "run.csv", settings="A=150"),
-        "settings (--set): expected a list of strings (not one str)",
+        lambda out: simulate_log(MODEL, out / "run.csv", sets="A=150"),
+        "sets (--set): expected a list of strings (not one str)",
     ),
     "batch of bytes": (  # a sequence of ints: "expected a path, got the int 99"
         lambda out: run_batch(b"run.csv", MODEL, out_dir=out),
@@ -149,3 +149,20 @@ def test_a_numpy_integer_is_the_int_it_holds(tmp_path: Path) -> None:
     assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()
     with pytest.raises(OptionError, match=r"^jobs \(--jobs\): expected an int, got the numpy.bool"):
         run_batch([LOG], MODEL, out_dir=tmp_path / "out", jobs=np.True_)
+
+
+def test_each_command_line_option_has_one_keyword_across_the_jobs() -> None:
+    # simulate_log took --set as settings= where analyze, compare and run_batch take sets=:
+    # a notebook's simulate_log(..., sets=[...]) was a TypeError
+    import inspect
+
+    from hybridlog.jobs.arguments import OPTIONS
+
+    keywords: dict[str, set[str]] = {}
+    for job in (analyze, compare, run_batch, simulate_log, discover_modes):
+        for name in inspect.signature(job).parameters:
+            if name in OPTIONS:
+                keywords.setdefault(OPTIONS[name], set()).add(name)
+    keywords.pop("--out")  # out_dir names a folder (analyze, compare, batch), out a file
+    assert {option: names for option, names in keywords.items() if len(names) > 1} == {}
+    assert keywords["--set"] == {"sets"}

@@ -71,7 +71,7 @@ def test_a_simulation_names_them(tmp_path: Path) -> None:
     # the step check of the plant: "integration.step: 0.001 s is too long for mode '0'"
     out = tmp_path / "run.csv"
     with pytest.raises(ModelError) as raised:
-        simulate_log("ice_clutch", out, steps=3, settings=["fE=1000"])
+        simulate_log("ice_clutch", out, steps=3, sets=["fE=1000"])
     assert "integration.step" in str(raised.value)
     assert str(raised.value).endswith(" (after --set fE=1000)")
     assert not out.exists()
@@ -82,7 +82,7 @@ def test_a_simulation_names_the_disturbance_that_drove_it_there(tmp_path: Path) 
     # a word of it, and a user shortened the model's step, which suits the plant without it
     out = tmp_path / "run.csv"
     with pytest.raises(ModelError) as raised:
-        simulate_log("ice_clutch", out, steps=30, disturbance="100, 1", settings=["fE=0.02"])
+        simulate_log("ice_clutch", out, steps=30, disturbance="100, 1", sets=["fE=0.02"])
     assert "integration.step" in str(raised.value)
     assert str(raised.value).endswith(" (after --set fE=0.02, --disturbance 100, 1)")
     assert not out.exists()

@@ -26,7 +26,7 @@ from tests.support.cli import run_main
 def test_a_parameter_only_unplayed_component_modes_name_is_refused(tmp_path: Path, setting):
     out = tmp_path / "x.csv"
     with pytest.raises(OptionError) as caught:
-        simulate_log("bioplex_pgc", out, steps=20, seed=1, settings=[setting])
+        simulate_log("bioplex_pgc", out, steps=20, seed=1, sets=[setting])
     name = setting.split("=")[0]
     assert str(caught.value) == (
         f"--set {setting}: parameters.{name} of bioplex_pgc is named only by modes this run "
@@ -36,7 +36,7 @@ def test_a_parameter_only_unplayed_component_modes_name_is_refused(tmp_path: Pat
     assert not out.exists() and not list(tmp_path.iterdir())
     # q_max, named by the regulators' stuck_open modes (not played either), is also the
     # drift's bound in simulation.unmodelled: read once the drift starts within the run
-    simulate_log("bioplex_pgc", out, steps=20, seed=1, settings=["q_max=0.6", "drift_start=5"])
+    simulate_log("bioplex_pgc", out, steps=20, seed=1, sets=["q_max=0.6", "drift_start=5"])
     assert out.exists()
 
 
@@ -45,7 +45,7 @@ def test_a_parameter_only_unstarted_unmodelled_behaviours_name_is_refused(tmp_pa
     # bounds starts at step 700, and no played mode names q_max
     out = tmp_path / "x.csv"
     with pytest.raises(OptionError) as caught:
-        simulate_log("bioplex_pgc", out, steps=20, seed=1, settings=["q_max=0.6"])
+        simulate_log("bioplex_pgc", out, steps=20, seed=1, sets=["q_max=0.6"])
     assert str(caught.value) == (
         "--set q_max=0.6: parameters.q_max of bioplex_pgc is named only by modes this run "
         "never plays (components.fr1.modes.stuck_open, components.fr2.modes.stuck_open) and "
@@ -64,9 +64,9 @@ def test_a_parameter_only_unscheduled_modes_name_is_refused(tmp_path: Path):
         r"named only by modes this run never plays \(modes\.2, modes\.3\): .* "
         r"play them \(--schedule\) or drop the --set$",
     ):
-        simulate_log("three_tank_hstf", out, schedule="1:20", seed=1, settings=["s2=1"])
+        simulate_log("three_tank_hstf", out, schedule="1:20", seed=1, sets=["s2=1"])
     assert not out.exists()
-    simulate_log("three_tank_hstf", out, schedule="1:20,3:2", seed=1, settings=["s2=1"])
+    simulate_log("three_tank_hstf", out, schedule="1:20,3:2", seed=1, sets=["s2=1"])
     assert out.exists()
 
 
@@ -132,7 +132,7 @@ def test_a_guard_switched_modes_parameter_is_read_whatever_the_seed(tmp_path: Pa
     entered = set()
     for seed in range(6):
         out = tmp_path / f"seed{seed}.csv"
-        simulate_log(model, out, steps=5, seed=seed, settings=["g=3"])
+        simulate_log(model, out, steps=5, seed=seed, sets=["g=3"])
         entered.add("high" in out.read_text())
     assert entered == {True, False}  # the seeds differ in whether the mode is entered
 
@@ -141,7 +141,7 @@ def test_a_run_steps_end_before_the_schedule_plays_the_mode_names_the_steps(tmp_
     # "play them (--schedule)" where the model's schedule plays modes 2 and 3 after step 100
     out = tmp_path / "x.csv"
     with pytest.raises(OptionError) as caught:
-        simulate_log("three_tank_hstf", out, steps=100, seed=1, settings=["s2=0.4"])
+        simulate_log("three_tank_hstf", out, steps=100, seed=1, sets=["s2=0.4"])
     assert str(caught.value) == (
         "--set s2=0.4: parameters.s2 of three_tank_hstf is named only by modes this run "
         "never plays (modes.2, modes.3): the log would be the same without it; the run ends "
@@ -149,7 +149,7 @@ def test_a_run_steps_end_before_the_schedule_plays_the_mode_names_the_steps(tmp_
         "the --set"
     )
     assert not list(tmp_path.iterdir())
-    simulate_log("three_tank_hstf", out, steps=101, seed=1, settings=["s2=0.4"])
+    simulate_log("three_tank_hstf", out, steps=101, seed=1, sets=["s2=0.4"])
     assert out.exists()
 
 
@@ -159,9 +159,9 @@ def test_a_components_run_steps_end_before_a_scheduled_mode_names_the_steps(tmp_
     model.write_text(text)
     out = tmp_path / "x.csv"
     with pytest.raises(OptionError, match=r"plays components\.pgc\.modes\.leak at step 30: "):
-        simulate_log(model, out, steps=29, seed=1, settings=["c_out=500"])
+        simulate_log(model, out, steps=29, seed=1, sets=["c_out=500"])
     assert not out.exists()
-    simulate_log(model, out, steps=30, seed=1, settings=["c_out=500"])
+    simulate_log(model, out, steps=30, seed=1, sets=["c_out=500"])
     assert out.exists()
 
 
@@ -210,7 +210,7 @@ def test_a_parameter_only_jump_maps_of_unmade_switches_name_is_refused(tmp_path:
     model.write_text(_CLUTCH)
     out = tmp_path / "x.csv"
     with pytest.raises(OptionError) as caught:
-        simulate_log(model, out, seed=1, settings=["s=3"])
+        simulate_log(model, out, seed=1, sets=["s=3"])
     assert str(caught.value) == (
         f"--set s=3: parameters.s of {model} is named only by jump maps of switches this run "
         'never makes (jumps."*->slow"): the log would be the same without it; the run ends '
@@ -218,13 +218,13 @@ def test_a_parameter_only_jump_maps_of_unmade_switches_name_is_refused(tmp_path:
         "--steps 21 or more, or drop the --set"
     )
     with pytest.raises(OptionError, match=r"jumps\.\"slow->fast\"\): .* make those switches "):
-        simulate_log(model, out, schedule="slow:10", seed=1, settings=["r=0.1"])
+        simulate_log(model, out, schedule="slow:10", seed=1, sets=["r=0.1"])
     # a map the run's own switch pair overrides is not read either: fast -> slow here takes
     # its own map, never "*->slow"
     text = _CLUTCH + '\n[jumps."fast->slow"]\nx = "x"\n'
     model.write_text(text)
     with pytest.raises(OptionError, match=r"never makes \(jumps\.\"\*->slow\"\): "):
-        simulate_log(model, out, steps=25, seed=1, settings=["s=3"])
+        simulate_log(model, out, steps=25, seed=1, sets=["s=3"])
     assert not list(tmp_path.glob("*.csv"))
 
 
@@ -234,14 +234,14 @@ def test_a_parameter_a_made_switch_or_a_played_mode_reads_is_accepted(tmp_path: 
     logs = {}
     for name, steps, settings in (("base", 25, []), ("s", 25, ["s=3"]), ("r", 20, ["r=0.1"])):
         out = tmp_path / f"{name}.csv"
-        simulate_log(model, out, steps=steps, seed=1, settings=settings)
+        simulate_log(model, out, steps=steps, seed=1, sets=settings)
         logs[name] = out.read_text()
     assert logs["s"] != logs["base"]  # the schedule repeats: fast -> slow at step 21
     # `both` is read by fast's dx where the slow -> fast jump is never made
-    simulate_log(model, tmp_path / "b.csv", schedule="fast:5", seed=1, settings=["both=2"])
+    simulate_log(model, tmp_path / "b.csv", schedule="fast:5", seed=1, sets=["both=2"])
     # and refused where neither is read, naming both parts
     with pytest.raises(OptionError, match=r"only by modes .* \(modes\.fast\) and by jump maps"):
-        simulate_log(model, tmp_path / "c.csv", steps=5, seed=1, settings=["both=2"])
+        simulate_log(model, tmp_path / "c.csv", steps=5, seed=1, sets=["both=2"])
 
 
 _ESTIMATED = """
@@ -296,17 +296,17 @@ def test_a_parameter_only_keys_without_expressions_name_is_refused_by_every_comm
         "as expressions (estimators.imm.mode_sequence): "
     )
     with pytest.raises(OptionError) as caught:
-        simulate_log(model, out, seed=1, settings=["kbest=1"])
+        simulate_log(model, out, seed=1, sets=["kbest=1"])
     assert str(caught.value) == why + "the log would be the same without it; drop the --set"
     with pytest.raises(OptionError) as caught:
         parse_sets(["kbest=1"], str(model))
     assert str(caught.value) == why + "it would change nothing here"
     # `data` is also a path's field under [signals], and a gain of modes.1: read
-    simulate_log(model, out, seed=1, settings=["data=2"])
+    simulate_log(model, out, seed=1, sets=["data=2"])
     assert parse_sets(["data=2"], str(model))[0].parameters["data"] == 2.0
     # ... unless only modes.2 is played: named by an unplayed mode and a log path
     with pytest.raises(OptionError, match=r"expressions \(signals\.y\) and by modes this run "):
-        simulate_log(model, out, schedule="2:5", seed=1, settings=["data=2"], force=True)
+        simulate_log(model, out, schedule="2:5", seed=1, sets=["data=2"], force=True)
 
 
 def test_simulate_refuses_an_unmade_switchs_parameter_on_the_command_line(

@@ -254,7 +254,7 @@ def test_what_the_simulation_reads_is_checked_before_its_output(
     out = tmp_path / "existing.csv"
     out.write_text("the user's\n", encoding="utf-8")
     with pytest.raises(HybridlogError) as refused:
-        simulate_log("three_tank_hstf", out, settings=settings, steps=10)
+        simulate_log("three_tank_hstf", out, sets=settings, steps=10)
     if said is None:
         assert isinstance(refused.value, OutputError), refused.value
     else:
@@ -292,8 +292,8 @@ def test_options_a_components_model_does_not_read_are_refused_before_its_output(
     [
         ("three_tank_hstf", {"schedule": "garbage"}, "--schedule: 'garbage' is not MODE:STEPS"),
         ("three_tank_hstf", {"schedule": "9:10"}, "--schedule: unknown mode '9'"),
-        ("bioplex_pgc", {"settings": ["nosuch=1"]}, "--set nosuch: neither a scenario parameter"),
-        ("bioplex_pgc", {"settings": ["drift_start=-5"]}, "--set drift_start: bioplex_pgc: "),
+        ("bioplex_pgc", {"sets": ["nosuch=1"]}, "--set nosuch: neither a scenario parameter"),
+        ("bioplex_pgc", {"sets": ["drift_start=-5"]}, "--set drift_start: bioplex_pgc: "),
     ],
 )
 def test_a_bad_schedule_or_scenario_setting_is_refused_before_the_output(
