@@ -104,6 +104,9 @@ _PARAMETER_KEYS = {
 }
 """The clustering options each algorithm's ``parameters`` record."""
 
+_KEY_SHOWN = 40
+"""The most characters of an unknown key an error quotes (and matches to a known one)."""
+
 _BOX_SLACK = 1e-9
 """Relative rounding allowed when a centre is checked against the box ``scaling``."""
 
@@ -455,10 +458,19 @@ class _Reader:
         """Refuse a key of the object ``data`` (at ``key``) that is not one of ``keys``."""
         for name in data:
             if name not in keys:
-                close = difflib.get_close_matches(str(name), sorted(keys), n=1)
+                # a key as long as a file (hand-made) is quoted cut, and matched against no
+                # key: difflib and the message's whole-line handling copied a 20 MB key
+                # about 40 times over
+                plain = name.isidentifier() and len(name) <= _KEY_SHOWN
+                shown = name if plain else excerpt(name, _KEY_SHOWN)
+                close = (
+                    difflib.get_close_matches(name, sorted(keys), n=1)
+                    if len(name) <= _KEY_SHOWN
+                    else []
+                )
                 hint = f"; did you mean {close[0]!r}?" if close else ""
                 raise self.error(
-                    f"{key}.{name}" if key else str(name),
+                    f"{key}.{shown}" if key else shown,
                     f"not a key of {'a centres file' if not key else repr(key)} "
                     f"({', '.join(sorted(keys))}){hint}",
                 )
