@@ -299,6 +299,9 @@ def parse_centers(text: str, source: str) -> CentersFile:
     if type(version) is not int or version != VERSION:  # not true, not 1.0
         raise reader.error("version", f"unsupported version {version!r}")
     mode_ids = tuple(reader.strings(data, "mode_ids"))
+    twice = next((m for i, m in enumerate(mode_ids) if m in mode_ids[:i]), None)
+    if twice is not None:  # compared with the model's as a set: ["1", "2", "2"] passed
+        raise reader.error("mode_ids", f"the mode {excerpt(twice)} is listed twice")
     regressors = tuple(reader.strings(data, "regressors"))
     d = len(regressors)
     scaling = reader.table(data, "scaling")

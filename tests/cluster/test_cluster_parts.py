@@ -498,6 +498,11 @@ def test_data_too_short_to_cluster_is_an_error_naming_the_log():
             r"^mem.json: chiu.moeds: not a key of 'chiu' \(.*\); did you mean 'modes'\?$",
         ),
         (lambda d: d.update(centres=[[0.0]]), r"^mem.json: centres: not a key of a centres file"),
+        # a mode listed twice was taken: the file's modes are compared with the model's as a set
+        (
+            lambda d: d.update(mode_ids=["a", "b", "b"]),
+            r"^mem.json: mode_ids: the mode 'b' is listed twice$",
+        ),
         (lambda d: d["scaling"].update(mid=[0.0]), r"^mem.json: scaling.mid: not a key of"),
         (
             lambda d: d["chiu"]["parameters"].update(radious=0.3),
