@@ -148,3 +148,48 @@ def test_shortened_keeps_the_ends_and_words_whole_where_it_can(
     head, tail = line.split("…")
     assert text.startswith(head) and text.endswith(tail)
     assert len(line) >= limit * 3 // 4 - 2  # a word boundary is sought near the cut only
+
+
+def test_an_excerpt_of_a_huge_text_escapes_its_ends_only() -> None:
+    """A model file of 50 MB of NUL bytes (one line) took 4 GB to say its line 1 is invalid
+    TOML (1.5 GB: killed by the kernel after 2 minutes), a centres file's 40-million-character
+    mode name 3 GB: the whole text was escaped a character at a time (a list of 80-byte
+    strings) before the excerpt cut it to 60 characters.  The same excerpt now, from the
+    ends alone; and printable's only copy is its output."""
+    import tracemalloc
+
+    from hybridlog.errors import excerpt, printable
+
+    text = "\x00" * 5_000_000
+    tracemalloc.start()
+    try:
+        shown = excerpt(text, 60)
+        excerpt_peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.reset_peak()
+        escaped = printable(text)
+        printable_peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert shown == "'" + "\\x00" * 10 + "…x00" + "\\x00" * 4 + "'"
+    assert escaped == "\\x00" * 5_000_000
+    assert excerpt_peak < 4 * len(text)
+    assert printable_peak < 2 * len(escaped)
+
+
+@given(st.text(alphabet="a\x00\né\x85\udcff\udcc3\udca9😀\u200b \U000e0001\ud800", max_size=300))
+def test_an_excerpt_cut_before_escaping_is_the_excerpt_of_the_escaped_text(text: str) -> None:
+    from hybridlog.errors import as_text, excerpt, printable
+
+    def escaped_first(limit: int) -> str:
+        shown = "".join(
+            c if c.isprintable() else c.encode("unicode_escape").decode("ascii")
+            for c in as_text(text)
+        )
+        if len(shown) > limit:
+            keep = max(limit - 1, 2)
+            shown = shown[: keep - keep // 3] + "…" + shown[len(shown) - keep // 3 :]
+        return "'" + shown + "'"
+
+    for limit in (1, 2, 3, 4, 10, 60, 80, 120):
+        assert excerpt(text, limit) == escaped_first(limit)
+    assert printable(text) == escaped_first(10**6)[1:-1]

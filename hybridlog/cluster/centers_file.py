@@ -104,6 +104,9 @@ _PARAMETER_KEYS = {
 }
 """The clustering options each algorithm's ``parameters`` record."""
 
+_KEY_SHOWN = 40
+"""The most characters of an unknown key an error quotes (and matches to a known one)."""
+
 _BOX_SLACK = 1e-9
 """Relative rounding allowed when a centre is checked against the box ``scaling``."""
 
@@ -296,6 +299,9 @@ def parse_centers(text: str, source: str) -> CentersFile:
     if type(version) is not int or version != VERSION:  # not true, not 1.0
         raise reader.error("version", f"unsupported version {version!r}")
     mode_ids = tuple(reader.strings(data, "mode_ids"))
+    twice = next((m for i, m in enumerate(mode_ids) if m in mode_ids[:i]), None)
+    if twice is not None:  # compared with the model's as a set: ["1", "2", "2"] passed
+        raise reader.error("mode_ids", f"the mode {excerpt(twice)} is listed twice")
     regressors = tuple(reader.strings(data, "regressors"))
     d = len(regressors)
     scaling = reader.table(data, "scaling")
@@ -455,10 +461,19 @@ class _Reader:
         """Refuse a key of the object ``data`` (at ``key``) that is not one of ``keys``."""
         for name in data:
             if name not in keys:
-                close = difflib.get_close_matches(str(name), sorted(keys), n=1)
+                # a key as long as a file (hand-made) is quoted cut, and matched against no
+                # key: difflib and the message's whole-line handling copied a 20 MB key
+                # about 40 times over
+                plain = name.isidentifier() and len(name) <= _KEY_SHOWN
+                shown = name if plain else excerpt(name, _KEY_SHOWN)
+                close = (
+                    difflib.get_close_matches(name, sorted(keys), n=1)
+                    if len(name) <= _KEY_SHOWN
+                    else []
+                )
                 hint = f"; did you mean {close[0]!r}?" if close else ""
                 raise self.error(
-                    f"{key}.{name}" if key else str(name),
+                    f"{key}.{shown}" if key else shown,
                     f"not a key of {'a centres file' if not key else repr(key)} "
                     f"({', '.join(sorted(keys))}){hint}",
                 )
@@ -521,7 +536,7 @@ def _warnings(notes: Any) -> tuple[str, ...]:
         if isinstance(note, str) and note.startswith(prefix) and note[len(prefix) :].strip()
     ]
     repeated = tuple(
-        shortened(printable(" ".join(note.split())), _WARNING_LIMIT)
+        shortened(printable(" ".join(_ends(note).split())), _WARNING_LIMIT)
         for note in found[:_WARNINGS_REPEATED]
     )
     rest = len(found) - len(repeated)
@@ -531,6 +546,20 @@ def _warnings(notes: Any) -> tuple[str, ...]:
 
 _WARNING_LIMIT = 300
 """The most characters of a file's warning an ``analyze`` repeats (cluster's own: ~220)."""
+
+
+def _ends(note: str) -> str:
+    """``note``, or of a note far longer than a repeated warning its two ends only.
+
+    A warning is repeated cut to :data:`_WARNING_LIMIT` characters; splitting a note of
+    40 million words into words first took 30 bytes a character (a centres file of 80 MB
+    took 3 GB, and one of 1 GB would take the machine's memory).
+    """
+    room = 8 * _WARNING_LIMIT
+    if len(note) <= 2 * room:
+        return note
+    return note[:room] + " " + note[len(note) - room :]
+
 
 _WARNINGS_REPEATED = 3
 """The most warnings of one file's notes an ``analyze`` repeats (cluster writes one)."""

@@ -463,8 +463,9 @@ def _choose_method(
             f"method=approximate with radius >= {needed:g} or fewer lags takes the grid's "
             "approximate potentials instead"
         )
+    points = "1 point" if n == 1 else f"{n} points"  # "approximate potentials (1 points"
     if options.method == "exact":
-        return "exact", None, f"exact potentials ({n} points, requested)", way_out
+        return "exact", None, f"exact potentials ({points}, requested)", way_out
     if options.method == "approximate":
         if not (grid_ok and grid_fine):
             raise ClusteringOptionError(
@@ -474,9 +475,8 @@ def _choose_method(
                 f"ones; {d} varying dimensions at r_a = {float(radii.min()):g} give "
                 f"{grid_text}: use method=exact (O(N²)), fewer lags, or radius >= {needed:g}",
             )
-        return "approximate", intervals, f"approximate potentials ({n} points, {grid_text})", ""
+        return "approximate", intervals, f"approximate potentials ({points}, {grid_text})", ""
     if n <= AUTO_EXACT_MAX:
-        points = "1 point" if n == 1 else f"{n} points"
         note = f"exact potentials (auto: {points} <= {AUTO_EXACT_MAX})"
         return "exact", None, note, way_out
     if grid_ok and grid_fine:

@@ -141,7 +141,7 @@ def mode_classifier(
     options: ChiuOptions | KMeansOptions,
     *,
     centers: CentersFile | None = None,
-    observer: tuple[LinearModes, ObserverGains] | None = None,
+    observer: tuple[LinearModes, ObserverGains] | str | None = None,
 ) -> ModeClassifier:
     """Fit (or take from ``centers``) the clusters and label them as modes.
 
@@ -158,8 +158,9 @@ def mode_classifier(
     centers:
         A parsed ``centers.json`` to take the centres from instead of fitting them.
     observer:
-        Matrices and gains for the automatic labelling; ``None`` leaves the clusters
-        unlabelled unless ``cluster_modes`` or the centres file gives labels.
+        Matrices and gains for the automatic labelling; without them (``None``, or why
+        there are none: a model not linear, an infeasible LMI) the clusters are unlabelled
+        unless ``cluster_modes`` or the centres file gives labels, the note saying why.
 
     Raises
     ------
@@ -214,7 +215,7 @@ def mode_classifier(
         )
     if classifier.cluster_modes is not None:
         return classifier
-    if observer is not None:
+    if observer is not None and not isinstance(observer, str):
         decided = classifier.decide(signals.measured_outputs())
         score = _prediction_score(model, signals, *observer, decided)
         labels = label_clusters(
@@ -237,7 +238,9 @@ def mode_classifier(
                 "(analyze --set cluster_modes=2,1) sets the labels by hand"
             )
         return classifier.labelled(labels.modes, labels.notes, labelling_scores=labels.alternatives)
-    return classifier.labelled(None, ("clusters not labelled (the model is not linear)",))
+    # the reason given: a linear model whose LMI (15) is infeasible was said "not linear"
+    why = observer if isinstance(observer, str) else "no observer to score labellings by"
+    return classifier.labelled(None, (f"clusters not labelled as modes: {why}",))
 
 
 def run_clustering_observer(

@@ -13,7 +13,8 @@ from pathlib import Path
 from typing import Any
 
 from hybridlog.cluster.centers_file import CentersFile, centers_json, parse_centers
-from hybridlog.errors import OptionError, OutputError
+from hybridlog.errors import ModelError, OptionError, OutputError
+from hybridlog.model.toml_text import decode_model_file
 from hybridlog.outputs import atomic_files
 
 __all__ = ["read_centers", "write_centers"]
@@ -32,11 +33,15 @@ def read_centers(path: str | os.PathLike[str]) -> CentersFile:
     if source.exists() and not source.is_file():  # a pipe would block, /dev/zero never end
         raise OptionError(f"{source}: not a regular file (a folder, pipe or device)")
     try:
-        text = source.read_text(encoding="utf-8")
+        data = source.read_bytes()
     except FileNotFoundError as err:
         raise OptionError(f"{source}: no such centers file") from err
-    except (OSError, UnicodeDecodeError) as err:
+    except OSError as err:
         raise OptionError(f"{source}: cannot read: {err}") from err
+    try:  # as a model file's: the line of the first byte that is not UTF-8, or UTF-16 named
+        text = decode_model_file(data)
+    except ModelError as err:  # read "cannot read: 'utf-8' codec can't decode byte 0xff in
+        raise OptionError(f"{source}: {err}") from None  # position 0: invalid start byte"
     return parse_centers(text, str(source))
 
 

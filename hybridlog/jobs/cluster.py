@@ -441,7 +441,7 @@ def _classifier(
     model: HybridModel,
     signals: AlignedSignals,
     options: _Options,
-    observer: tuple[LinearModes, ObserverGains] | None,
+    observer: tuple[LinearModes, ObserverGains] | str,
     given: Collection[str],
 ) -> ModeClassifier:
     """The clusters of ``options`` fitted on the log, labelled (see ``mode_classifier``).
@@ -616,11 +616,11 @@ def discover_modes(
     reading: dict[str, Any] = {}
     signals = read_log(os.fspath(log), model, read, reading)
     notes: list[str] = []
+    observer: tuple[LinearModes, ObserverGains] | str
     try:
         observer = design_observer(model, chiu.decay_rate)
     except ModelError as err:
-        observer = None
-        notes.append(f"clusters not labelled as modes: {err}")
+        observer = str(err)  # each algorithm's labelling says why (centers.json too)
     try:  # the grid of method = approximate is chosen on the data
         fitted = _classifier(model, signals, chiu, observer, given)
     except ClusteringOptionError as err:

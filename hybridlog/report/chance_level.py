@@ -52,11 +52,15 @@ def below_chance(confusion: Mapping[str, Mapping[str, int]]) -> str | None:
         return None
     chance, accuracy = agree / (scored * scored), hits / scored
     kappa = (accuracy - chance) / (1.0 - chance)
+    # digits that tell the two apart, and a kappa that is not "-0.00": 50.2 % of random
+    # labels against a chance of 50.5 % read "Cohen's kappa -0.00", below chance at zero
+    digits = next(d for d in range(1, 17) if f"{accuracy:.{d + 2}f}" != f"{chance:.{d + 2}f}")
+    kappa_shown = f"{kappa:.2f}" if kappa <= -0.005 else f"{kappa:.1g}"
     return (
-        f"mode accuracy {100 * accuracy:.1f} % is below chance: estimated modes drawn "
+        f"mode accuracy {100 * accuracy:.{digits}f} % is below chance: estimated modes drawn "
         f"independently of the true ones, with the same frequencies, would agree on "
-        f"{100 * chance:.1f} % of these {scored:,} samples (Cohen's kappa {kappa:.2f}); the "
-        "estimated modes are anti-correlated with the true ones"
+        f"{100 * chance:.{digits}f} % of these {scored:,} samples (Cohen's kappa "
+        f"{kappa_shown}); the estimated modes are anti-correlated with the true ones"
     )
 
 

@@ -1,5 +1,7 @@
 """``hybridlog cluster`` on long work: the up-front note and the progress bar on stderr."""
 
+import json
+
 import pytest
 from click.testing import CliRunner
 
@@ -32,3 +34,59 @@ def test_cluster_says_how_long_the_exact_potentials_take(tmp_path, monkeypatch, 
             "; method=approximate takes the grid's approximate potentials instead"
         )
         assert "| chiu | 1 |" in result.stdout
+
+
+_JOINTLY_UNSTABLE = """
+name = "joint"
+time = "discrete"
+dt = 1.0
+states = ["x1", "x2"]
+inputs = ["u"]
+outputs = ["y"]
+
+[modes.1]
+A = [[0.5, 2.0], [0.0, 0.5]]
+B = [1.0, 0.0]
+C = [0.0, 0.0]
+
+[modes.2]
+A = [[0.5, 0.0], [2.0, 0.5]]
+B = [1.0, 0.0]
+C = [0.0, 0.0]
+
+[noise]
+process = 0.0
+measurement = 1e-6
+
+[initial]
+state = [0.0, 0.0]
+covariance = 1.0
+mode = "1"
+"""
+
+
+def test_clusters_a_linear_model_cannot_label_say_why_not_that_it_is_not_linear(tmp_path):
+    """Two linear modes, each stable, unstable when switched, seen by no output: the LMI
+    (15) has no solution, so no observer scores the labellings.  The clusters' labelling,
+    in centers.json and the printed notes, said "clusters not labelled (the model is not
+    linear)" of this linear model; the LMI's reason was one more note, printed only."""
+    import numpy as np
+
+    from hybridlog.jobs.cluster import discover_modes
+
+    model = tmp_path / "joint.toml"
+    model.write_text(_JOINTLY_UNSTABLE)
+    rng = np.random.default_rng(3)
+    log = tmp_path / "log.csv"
+    u, y = rng.normal(size=(2, 60))
+    rows = [f"{t}.0,{a:.17g},{b:.17g}" for t, (a, b) in enumerate(zip(u, y, strict=True))]
+    log.write_text("t,u,y\n" + "\n".join(rows) + "\n")
+    out = tmp_path / "c.json"
+    outcome = discover_modes(log, model, out=out, compare_kmeans=True)
+    stored = json.loads(out.read_text())
+    for algorithm in ("chiu", "kmeans"):
+        (said,) = [n for n in stored[algorithm]["labelling"] if "not labelled" in n]
+        assert said.startswith("clusters not labelled as modes: ")
+        assert "LMI (15)" in said and "jointly" in said and "not linear" not in said
+        assert stored[algorithm]["modes"] is None
+    assert not any("not linear" in note for note in outcome.notes)

@@ -99,3 +99,36 @@ def test_a_hand_written_files_warnings_are_repeated_bounded():
     assert many == ("number 0", "number 1", "number 2", "4,997 more warnings in its notes")
     assert warned([f"WARNING: number {i}" for i in range(4)])[-1] == "1 more warning in its notes"
     assert warned({"a": "WARNING: x"}) == ()
+
+
+def test_a_huge_hand_written_warning_is_repeated_without_copying_it_word_by_word():
+    """A warning of 3 million words (``ab ab ...``, 9 MB) was split into words and escaped a
+    character at a time before being cut to 300 characters: about 30 bytes a character (a
+    90 MB centres file took 2.6 GB, one of 1 GB the machine's memory).  Now its two ends
+    only are split and escaped: the peak is a few copies of the text at most."""
+    import tracemalloc
+
+    from hybridlog.cluster.centers_file import parse_centers
+
+    note = "WARNING: " + "ab " * 3_000_000
+    text = json.dumps(
+        {
+            "format": "hybridlog-centers",
+            "version": 1,
+            "mode_ids": ["a", "b"],
+            "regressors": ["y(k)"],
+            "output_lags": [0],
+            "input_lags": [],
+            "scaling": {"lower": [-0.5], "upper": [4.5]},
+            "chiu": {"centers": [[4.0], [0.0]], "notes": [note]},
+        }
+    )
+    tracemalloc.start()
+    try:
+        (said,) = parse_centers(text, "mem.json").clusters["chiu"].warnings
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert said.startswith("ab ab ") and said.endswith(" ab ab") and "…" in said
+    assert len(said) <= 300
+    assert peak < 4 * len(text)

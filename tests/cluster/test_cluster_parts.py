@@ -498,6 +498,11 @@ def test_data_too_short_to_cluster_is_an_error_naming_the_log():
             r"^mem.json: chiu.moeds: not a key of 'chiu' \(.*\); did you mean 'modes'\?$",
         ),
         (lambda d: d.update(centres=[[0.0]]), r"^mem.json: centres: not a key of a centres file"),
+        # a mode listed twice was taken: the file's modes are compared with the model's as a set
+        (
+            lambda d: d.update(mode_ids=["a", "b", "b"]),
+            r"^mem.json: mode_ids: the mode 'b' is listed twice$",
+        ),
         (lambda d: d["scaling"].update(mid=[0.0]), r"^mem.json: scaling.mid: not a key of"),
         (
             lambda d: d["chiu"]["parameters"].update(radious=0.3),
@@ -513,6 +518,34 @@ def test_a_key_hybridlog_does_not_write_is_refused(edit, message):
     content = copy.deepcopy({**_STORED, "chiu": {**_STORED["chiu"], "parameters": {"radius": 0.5}}})
     edit(content)
     with pytest.raises(OptionError, match=message):
+        parse_centers(centers_json(content), "mem.json")
+
+
+def test_an_unknown_key_as_long_as_a_file_is_quoted_cut():
+    """A hand-made key of 4 million characters (or one holding a line break) was written
+    whole into the error, matched by difflib against every known key on the way (a 20 MB
+    key took 0.9 GB and 2.8 s); the line break read as a space.  Now quoted, cut and
+    escaped, as other values of the file are, and suggested nothing."""
+    import tracemalloc
+
+    content = copy.deepcopy(_STORED)
+    content["chiu"]["moeds" + "y" * 4_000_000] = 1
+    text = centers_json(content)
+    tracemalloc.start()
+    try:
+        with pytest.raises(OptionError) as caught:
+            parse_centers(text, "mem.json")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert re.fullmatch(
+        r"mem.json: chiu.'moedsy+…y+': not a key of 'chiu' \([a-z_, ]+\)", str(caught.value)
+    ), str(caught.value)
+    assert len(str(caught.value)) < 300
+    assert peak < 8 * len(text)
+    content = copy.deepcopy(_STORED)
+    content["bo\ngus"] = 1
+    with pytest.raises(OptionError, match=r"^mem.json: 'bo\\ngus': not a key of a centres file"):
         parse_centers(centers_json(content), "mem.json")
 
 

@@ -457,3 +457,12 @@ def test_a_radius_below_the_default_grid_takes_a_finer_grid_that_fits():
         subtractive_clustering(data, SubtractiveOptions(radius=0.15, method="approximate"))
     with pytest.raises(OptionError, match=r"2048\^1 grid nodes"):
         subtractive_clustering(data[:, :1], SubtractiveOptions(radius=0.01, method="approximate"))
+
+
+@pytest.mark.parametrize("method", ["exact", "approximate", "auto"])
+def test_the_method_note_counts_one_point_in_the_singular(method):
+    # "approximate potentials (1 points, 129^1 grid nodes ...)" on a two-row log
+    (note,) = subtractive_clustering(np.zeros((1, 2)), SubtractiveOptions(method=method)).notes
+    assert "1 point" in note and "1 points" not in note
+    (note,) = subtractive_clustering(np.eye(3), SubtractiveOptions(method=method)).notes
+    assert "3 points" in note

@@ -241,3 +241,25 @@ def test_centres_fitted_with_another_simulation_input_fit_the_same_plant(tmp_pat
             sets=[f"centers={tmp_path / 'c2.json'}"],
             out_dir=tmp_path / "no",
         )
+
+
+def test_a_centres_file_not_in_utf8_is_named_as_a_model_file_is(tmp_path):
+    """A centres file saved as UTF-16 (Notepad's "Unicode") or Latin-1 read "cannot read:
+    'utf-8' codec can't decode byte 0xff in position 0: invalid start byte": Python's words,
+    a byte offset.  Now the line of the byte, or the UTF-16 byte-order mark, as a model file
+    says them."""
+    from hybridlog.jobs.centers import read_centers
+
+    discover_modes(LOG, "double_cart_case1", out=tmp_path / "c.json")
+    text = (tmp_path / "c.json").read_text()
+    (tmp_path / "u16.json").write_text(text, encoding="utf-16")
+    latin = text.replace('"model": "double_cart_case1"', '"model": "double_cart_case1\xe9"', 1)
+    (tmp_path / "latin.json").write_bytes(latin.encode("latin-1"))
+    with pytest.raises(OptionError, match=r"u16.json: not UTF-8: the file is UTF-16 \(it starts"):
+        read_centers(tmp_path / "u16.json")
+    line = latin[: latin.index("\xe9")].count("\n") + 1
+    with pytest.raises(
+        OptionError, match=rf"latin.json: line {line}: not UTF-8 \(byte 0xe9\); save the file as"
+    ):
+        read_centers(tmp_path / "latin.json")
+    assert read_centers(tmp_path / "c.json").model == "double_cart_case1"

@@ -9,6 +9,7 @@ reverse of the truth there.  The report said 28.3 %, exit 0, nothing else.
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 
@@ -60,3 +61,16 @@ def test_below_the_majority_share_is_not_below_chance() -> None:
     assert below_chance({"1": {"1": 95, "2": 5}}) is None  # one true mode: kappa 0
     reversed_labels = {"1": {"1": 10, "2": 90}, "2": {"1": 90, "2": 10}}
     assert "Cohen's kappa -0.80" in (below_chance(reversed_labels) or "")
+
+
+def test_a_kappa_just_below_zero_is_not_printed_as_zero() -> None:
+    # random labels: 50.2 % against a chance of 50.5 % read "(Cohen's kappa -0.00)", and
+    # an accuracy a hair below chance "50.5 % is below chance ... would agree on 50.5 %"
+    slightly = {"1": {"1": 251, "2": 249}, "2": {"1": 252, "2": 248}}
+    said = below_chance(slightly) or ""
+    assert "kappa -0.00)" not in said and "(Cohen's kappa -0.002)" in said, said
+    assert "mode accuracy 49.9 % is below chance" in said and "agree on 50.0 %" in said, said
+    hair = {"1": {"1": 5000, "2": 5000}, "2": {"1": 5001, "2": 4999}}
+    said = below_chance(hair) or ""
+    accuracy, chance = re.findall(r"(\d+\.\d+) %", said)
+    assert accuracy != chance and float(accuracy) < float(chance), said
