@@ -211,7 +211,11 @@ def printable(text: object) -> str:
 
 
 class _Escapes(dict[int, str]):
-    """``str.translate``'s table: each character's escape, found when first met."""
+    """``str.translate``'s table: each character's escape, found when first met.
+
+    Kept for the Basic Multilingual Plane alone (at most 65,536 entries, about 10 MB): a
+    text of every code point would otherwise leave 1.1 million in a long-lived process.
+    """
 
     def __missing__(self, code: int) -> str:
         character = chr(code)
@@ -220,8 +224,13 @@ class _Escapes(dict[int, str]):
             if character.isprintable()
             else character.encode("unicode_escape").decode("ascii")
         )
-        self[code] = escaped
+        if code < _KEPT_ESCAPES:
+            self[code] = escaped
         return escaped
+
+
+_KEPT_ESCAPES = 0x10000
+"""The code points whose escapes :class:`_Escapes` keeps."""
 
 
 _ESCAPES = _Escapes()

@@ -193,3 +193,14 @@ def test_an_excerpt_cut_before_escaping_is_the_excerpt_of_the_escaped_text(text:
     for limit in (1, 2, 3, 4, 10, 60, 80, 120):
         assert excerpt(text, limit) == escaped_first(limit)
     assert printable(text) == escaped_first(10**6)[1:-1]
+
+
+def test_the_escapes_kept_are_bounded_whatever_the_text() -> None:
+    # str.translate's table kept every code point met: a text of all 1.1 million (a
+    # notebook quoting hostile names for hours) left them all in the process
+    from hybridlog import errors
+
+    beyond = "".join(map(chr, range(0x10000, 0x110000, 3)))  # 348,000 code points
+    assert len(errors.printable(beyond)) >= len(beyond)
+    assert len(errors._ESCAPES) <= 0x10000
+    assert errors.printable("\U0001f600\x00\U000e0001") == "\U0001f600\\x00\\U000e0001"
