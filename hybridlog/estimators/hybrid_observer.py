@@ -682,8 +682,10 @@ def _divergence(
         )
     if escape is not None:
         at = interval
-        if escape.function == "reset":
-            at = f"at t = {format_time(signals.time[first])} s"
+        if escape.function == "reset":  # R is applied at t_k^+, k = first - 1 (module doc)
+            # (said t = t_first, a sample late: simulate's refusal of the same map, and this
+            # one's own "switch ... just after t_k", said t_k)
+            at = f"at t = {format_time(signals.time[first - 1])} s"
         flaw = ""
         if escape.function != "reset" and not np.isnan(escape.out).any():  # an overflow
             flaw = _rhs_flaw(model, module, arguments, first - 1)
