@@ -682,8 +682,10 @@ def _divergence(
         )
     if escape is not None:
         at = interval
-        if escape.function == "reset":
-            at = f"at t = {format_time(signals.time[first])} s"
+        if escape.function == "reset":  # R is applied at t_k^+, k = first - 1 (module doc)
+            # (said t = t_first, a sample late: simulate's refusal of the same map, and this
+            # one's own "switch ... just after t_k", said t_k)
+            at = f"at t = {format_time(signals.time[first - 1])} s"
         flaw = ""
         if escape.function != "reset" and not np.isnan(escape.out).any():  # an overflow
             flaw = _rhs_flaw(model, module, arguments, first - 1)
@@ -784,18 +786,48 @@ def _initial_mode_note(model: HybridModel, first: int) -> tuple[str, ...]:
     )
 
 
-def _open_loop_note(signals: AlignedSignals) -> tuple[str, ...]:
-    """How many intervals ran without output injection (``y`` not measured at their start)."""
-    if signals.unmeasured_outputs is None:
+def _open_loop_note(signals: AlignedSignals, modes: Any) -> tuple[str, ...]:
+    """How many intervals ran without output injection, and a warning where most did.
+
+    An interval runs open loop (observer (20) with ``K = 0``, module doc) where ``y`` was
+    not measured at its start, or where a switch opened it (``y(k)`` measured the state
+    before the jump).  Only the first were told: a switching signal that changes every
+    sample ran the whole log open loop, the model simulated from ``[initial] state``, and
+    the report (VAF 0, state RMSE 0.76) said nothing of why.
+    """
+    intervals = signals.n_samples - 1
+    if intervals < 1:
         return ()
-    count = int(np.count_nonzero(signals.unmeasured_outputs[:-1, 0]))
+    unmeasured = np.zeros(intervals, dtype=bool)
+    if signals.unmeasured_outputs is not None:
+        unmeasured = np.asarray(signals.unmeasured_outputs[:-1, 0], dtype=bool)
+    switched = np.asarray(modes[1:] != modes[:-1], dtype=bool)
+    count = int(np.count_nonzero(unmeasured | switched))
     if not count:
         return ()
-    return (
-        f"{count:,} of {signals.n_samples - 1:,} intervals ran without output injection "
-        f"(observer (20) with K = 0): the log did not measure {signals.output_names[0]} at "
-        "their start, and a value taken from the samples around is no measurement",
-    )
+    why = []
+    if unmeasured.any():
+        why.append(
+            f"the log did not measure {signals.output_names[0]} at the start of "
+            f"{int(np.count_nonzero(unmeasured)):,} (a value taken from the samples around is "
+            "no measurement)"
+        )
+    if switched.any():
+        why.append(
+            f"a switch opened {int(np.count_nonzero(switched)):,} (y measured the state before "
+            "the jump)"
+        )
+    notes = [
+        f"{count:,} of {intervals:,} intervals ran without output injection (observer (20) "
+        f"with K = 0): {'; '.join(why)}"
+    ]
+    if 2 * count > intervals:
+        notes.append(
+            f"WARNING: the observer corrected its estimate on only {intervals - count:,} of "
+            f"{intervals:,} intervals: on the others it integrated the model open loop, so the "
+            "estimate is mostly the model's run from [initial] state, not an observer's"
+        )
+    return tuple(notes)
 
 
 def run_switching_observer(
@@ -875,7 +907,7 @@ def run_switching_observer(
         int(jumped.sum()),
         states,
         eigenvalues,
-    ) + _open_loop_note(signals)
+    ) + _open_loop_note(signals, modes)
     if given and count:
         notes += _initial_mode_note(model, int(modes[0]))
     from hybridlog.estimators.options import options_dict

@@ -700,8 +700,10 @@ mode = "calm"
             ["calm", "calm", "dom", "dom"],
             "0.5",
             0.5,
+            # the switch is at t_1^+ (R applied just after t = 0.1 s), the estimate not
+            # finite at the next sample: the switch's time was said as 0.2 s
             r"^kinds\.toml: jumps\.\"calm->dom\": the jump map gives h1 = nan at the switch "
-            r"from 'calm' to 'dom' at t = 0\.2 s, from h1 = 0\.4[0-9]+: switching-observer "
+            r"from 'calm' to 'dom' at t = 0\.1 s, from h1 = 0\.4[0-9]+: switching-observer "
             r"diverged at t = 0\.2 s \(sample 2\)",
         ),
         # h finite at 0, dh/dx = 0/0 there: Q, derived, is named with its mode
@@ -848,3 +850,26 @@ def test_a_state_no_derivative_of_the_output_reads_is_refused_before_any_log():
     )
     prepare(cancelled, "switching-observer")
     prepare(load_model("ice_clutch"), None)
+
+
+def test_intervals_a_switch_opened_are_counted_and_a_log_of_them_warned_of(switched):
+    # An interval a switch opens runs without output injection (module doc); only those whose
+    # y was not measured were told, so a switching signal changing every sample ran the whole
+    # log open loop (the model's run from [initial] state) to exit 0 with no word of why.
+    from dataclasses import replace
+
+    model, _, signals, result = switched
+    switches = int(np.count_nonzero(np.diff(signals.truth_modes)))
+    intervals = signals.n_samples - 1
+    assert (
+        f"{switches:,} of {intervals:,} intervals ran without output injection (observer (20) "
+        f"with K = 0): a switch opened {switches:,} (y measured the state before the jump)"
+    ) in result.notes
+    assert not any(note.startswith("WARNING") for note in result.notes)
+    every = replace(signals, truth_modes=np.arange(signals.n_samples) % 2)
+    options = SwitchingObserverOptions(eigenvalues="-4,-8,-12")
+    notes = run_switching_observer(model, every, options).notes
+    assert f"{intervals:,} of {intervals:,} intervals ran without output injection" in notes[-2]
+    assert notes[-1].startswith(
+        f"WARNING: the observer corrected its estimate on only 0 of {intervals:,} intervals"
+    )

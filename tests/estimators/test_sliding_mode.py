@@ -76,7 +76,9 @@ def test_noise_free_reconstruction_test1(test1):
     columns = {c.name: c.values for c in result.timeline_columns}
     assert list(columns) == ["delta_tilde.U1", "delta_tilde.U2", "delta_tilde.U3", "vouched"]
     vouched = columns.pop("vouched")
-    assert set(np.unique(vouched)) == {0.0, 1.0} and vouched.mean() > 0.95
+    # vouched but on the transients (about 40 ms of each 500 ms dwell, the slip's windows
+    # before and after a sample) and the first 20 ms
+    assert set(np.unique(vouched)) == {0.0, 1.0} and vouched.mean() > 0.9
     deltas = np.stack(list(columns.values()), axis=1)
     bits = (deltas > 0.5).astype(int)
     np.testing.assert_array_equal(result.modes, bits @ np.array([4, 2, 1]))
@@ -89,6 +91,26 @@ def test_noise_free_reconstruction_test1(test1):
     error = np.abs(result.state_means - log.outputs)
     assert error.max() < 1e-3 and np.median(error) < 1e-5
     np.testing.assert_array_equal(result.output_predictions[1:], result.state_means[1:])
+
+
+def test_the_first_samples_after_a_switch_are_not_vouched_for(test1):
+    # The slip was the mean of D⁺ė over the 20 ms before a sample only: after a switch that
+    # window holds the samples since it, so it reached the margin half a window later (never
+    # in a shorter transient), and the first samples of every transient, σ̂ still the old
+    # mode's, were vouched for (125 on this log, σ̂ wrong on each).  The window after the
+    # sample counts too, and σ̂ changing within half a window after it.
+    model, log = test1
+    result = prepare(model, None).run(model, log.signals(model))
+    vouched = {c.name: c.values for c in result.timeline_columns}["vouched"] == 1.0
+    window = 20  # SLIP_WINDOW_S at dt = 1 ms
+    starts = np.zeros(log.modes.shape[0], dtype=bool)
+    for switch in np.flatnonzero(np.diff(log.modes)) + 1:
+        starts[switch : switch + window // 2] = True
+    wrong = result.modes != log.modes
+    assert (wrong & starts).sum() > 100  # σ̂ lags every switch: the case is there
+    assert not (wrong & starts & vouched).any()
+    # where σ̂ is vouched for, it is the true mode (on 125 samples it was not)
+    assert not (wrong & vouched).any()
 
 
 def test_disturbance_and_noise_test3():
@@ -529,4 +551,7 @@ def test_the_unvouched_refusal_counts_its_reasons_in_samples(outside, slipping, 
             f"not sliding on {slipping} samples; eq. (47) needs D of full column rank"
         )
     else:
-        assert f"|D⁺ė| ≥ 0.5 over 0.02 s, or in the first) on {slipping:,} sample" in message
+        assert (
+            f"|D⁺ė| ≥ 0.5 in 0.02 s either side, σ̂ settling, or in the first) on {slipping:,} "
+            "sample"
+        ) in message
