@@ -302,8 +302,8 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     # The log's bytes are hashed before they are read, and what stat says of it is the same
     # before the hash and after the read (:func:`_check_log_unchanged`), so a report never
     # records a content it was not made from.  Checked as its reader checks it first, so that
-    # a log missing, a link to nothing or an empty file fails with analyze's reason, not the
-    # hash's (``cannot read it: No such file or directory``).
+    # a log missing or a link to nothing fails with analyze's reason, not the hash's
+    # (``cannot read it: No such file or directory``).
     log_format(log)
     stamp = log_stamp(log)
     log_sha256 = content_hash(log)
