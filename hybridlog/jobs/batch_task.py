@@ -32,6 +32,7 @@ from hybridlog.errors import (
     excerpt,
 )
 from hybridlog.estimators import Prepared
+from hybridlog.io.formats import log_format
 from hybridlog.jobs.batch_folders import check_apart_from_reports
 from hybridlog.jobs.batch_job import BatchJob
 from hybridlog.jobs.batch_logs import header_time_applies, missing_pattern_hint, recover_applies
@@ -300,7 +301,10 @@ def _analyze_checked(job: BatchJob, log: str, folder: str) -> LogOutcome:
     check_dir_target(path, force=True, replacing=False)
     # The log's bytes are hashed before they are read, and what stat says of it is the same
     # before the hash and after the read (:func:`_check_log_unchanged`), so a report never
-    # records a content it was not made from.
+    # records a content it was not made from.  Checked as its reader checks it first, so that
+    # a log missing or a link to nothing fails with analyze's reason, not the hash's
+    # (``cannot read it: No such file or directory``).
+    log_format(log)
     stamp = log_stamp(log)
     log_sha256 = content_hash(log)
     if path.exists():

@@ -31,7 +31,7 @@ def test_a_pattern_no_shell_expanded_fails_as_its_log_with_a_hint(tmp_path: Path
     for pattern in ("*.csv", "s?.parquet"):
         assert by_log[pattern].status == "failed"
         error = by_log[pattern].error or ""
-        assert "No such file or directory" in error and HINT in error
+        assert f"{pattern}: no such file; " in error and HINT in error  # as analyze says it
         assert error.endswith("give it unquoted, or give the folder of logs")
     assert by_log["run[1].csv"].status == "done"
     missing = by_log["gone.csv"]
