@@ -23,8 +23,10 @@ MATLAB System Identification Toolbox, ``compare``: the fit (NRMSE) formula.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Final
 
 import numpy as np
 import numpy.typing as npt
@@ -119,11 +121,31 @@ def _scaled_ratio(a: Squares, b: Squares, size: Callable[[float], float]) -> flo
     return (a.scale / b.scale) * ratio if ratio else 0.0
 
 
+# A prediction whose values lie within this many float64 epsilons of their largest magnitude is
+# constant but for rounding: a mixture of equal per-mode predictions, sum(c_j * ŷ_j) with the
+# weights' sum 1 only to a few units in the last place, varies so (imm on an output that
+# no mode's state enters: 0.9999999999999999 ... 1.0000000000000002).
+ROUNDING_EPSILONS: Final = 32
+
+
+def _constant_prediction(predicted: Spread) -> bool:
+    """Whether ``ŷ`` is the same in every row, exactly or to the rounding of its arithmetic.
+
+    Its range at most :data:`ROUNDING_EPSILONS` epsilons of ``max |ŷ|``; var(ŷ) of such
+    values is rounding, and VAF's ratio to it only that rounding's (0 where the error
+    varies): undefined, as for equal values. Subnormal values are constant only when equal.
+    """
+    if math.isinf(predicted.magnitude):
+        return False
+    spread = predicted.high - predicted.low
+    return spread <= ROUNDING_EPSILONS * sys.float_info.epsilon * predicted.magnitude
+
+
 def _vaf(part: _OutputPart) -> float:
     if math.isinf(part.predicted.magnitude):
         return 0.0  # an infinite prediction: var(y − ŷ) is too (the ratio inf)
-    if part.predicted.high == part.predicted.low:
-        return math.nan  # var(ŷ) = 0: undefined
+    if _constant_prediction(part.predicted):
+        return math.nan  # var(ŷ) = 0, or only rounding: undefined
     if math.isinf(part.error.magnitude):
         return math.nan  # y − ŷ overflows float64 in some row: not a number to vouch for
     rows = part.power.rows
@@ -200,9 +222,10 @@ def vaf(y: npt.ArrayLike, y_hat: npt.ArrayLike) -> FloatArray:
     The denominator is the variance of the *prediction*, as in the paper (not of ``y``).
     Variances are population variances (``ddof=0``) over the rows where ``y`` is finite
     and ``y_hat`` is not NaN (an infinite ``y_hat`` diverged: VAF 0).  When ``var(ŷ) = 0``
-    (a constant prediction, or a single usable row) the ratio is undefined and so is VAF:
-    NaN, never a guessed 0 or 100 (:func:`output_metrics` says why).  Computed by
-    :class:`OutputAccumulator`.
+    (a constant prediction, also one constant but for rounding, its values within
+    :data:`ROUNDING_EPSILONS` epsilons of ``max |ŷ|``, or a single usable row) the ratio is
+    undefined and so is VAF: NaN, never a guessed 0 or 100 (:func:`output_metrics` says
+    why).  Computed by :class:`OutputAccumulator`.
 
     Parameters
     ----------
@@ -292,9 +315,10 @@ def _output_metrics(part: _OutputPart | None) -> OutputMetrics:
     n = part.power.rows
     rows = "the only row" if n == 1 else f"all {n:,} rows"
     undefined = {}
-    if part.predicted.high == part.predicted.low and not math.isinf(part.predicted.magnitude):
+    if _constant_prediction(part.predicted):
+        same = "the same" if part.predicted.high == part.predicted.low else "the same to rounding"
         undefined["vaf"] = (
-            f"var(ŷ) = 0: the prediction is the same in {rows} with a prediction, "
+            f"var(ŷ) = 0: the prediction is {same} in {rows} with a prediction, "
             "so VAF = 1 − var(y − ŷ)/var(ŷ) is undefined"
         )
     if part.measured.high == part.measured.low or not part.measured.deviations.total > 0.0:

@@ -6,6 +6,7 @@ import dataclasses
 import math
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -64,6 +65,35 @@ def test_vaf_with_constant_prediction_is_undefined(y: list[float], y_hat: list[f
     assert math.isnan(m.vaf)
     assert "var(ŷ) = 0" in m.undefined["vaf"]
     assert "mse" not in m.undefined  # MSE is defined for a single sample
+
+
+# A constant prediction mixed from equal per-mode ones (imm: sum(c_j * ŷ_j), the weights' sum
+# 1 to a few ulps) varies by rounding alone; it scored VAF 0 % (a ratio to var(ŷ) ~ 1e-32)
+# where the same prediction, exactly constant (hstf), was undefined.
+@pytest.mark.parametrize("centre", [1.0, -3.5e7, 1e-300, 1e300])
+def test_vaf_of_a_prediction_constant_but_for_rounding_is_undefined(centre: float) -> None:
+    jitter = np.array([0.0, 1.0, -1.0, 2.0, 0.0, -1.0]) * math.ulp(centre)
+    y_hat = centre + jitter
+    assert np.ptp(y_hat) > 0.0
+    y = centre + np.array([0.3, -0.2, 0.1, 0.4, -0.5, 0.2]) * abs(centre)
+    (m,) = metrics.output_metrics(y, y_hat)
+    assert math.isnan(m.vaf)
+    assert m.undefined["vaf"].startswith("var(ŷ) = 0: the prediction is the same to rounding")
+
+
+@pytest.mark.parametrize(
+    "y_hat",
+    [
+        1.0 + np.array([0.0, 1.0, 2.0, 3.0]) * 1e3 * math.ulp(1.0),  # 3,000 ulps: a value
+        np.array([5e-324, 1e-323, 5e-324, 1.5e-323]),  # subnormal: ulps are its values
+    ],
+)
+def test_vaf_of_a_prediction_varying_beyond_rounding_is_a_number(
+    y_hat: npt.NDArray[np.float64],
+) -> None:
+    (m,) = metrics.output_metrics(y_hat.copy(), y_hat)
+    assert m.vaf == 100.0
+    assert "vaf" not in m.undefined
 
 
 def test_fit_by_hand() -> None:
