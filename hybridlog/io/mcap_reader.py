@@ -597,6 +597,12 @@ class McapSource(MessageSource):
                 raise
             self._stop = _stop_reason(err)
         if self.options.recover:
+            if total == 0 and self._stop is not None:
+                # else every mapped field is "missing; the log has none", hiding the damage
+                raise LogError(
+                    f"{self.path}: --recover reads no message (the sequential read stops at "
+                    f"{self._stop}, before the first whole message)"
+                )
             self._notes.update(
                 {
                     "recovered": True,

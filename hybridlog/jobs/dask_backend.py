@@ -116,6 +116,7 @@ def connect(address: str) -> Any:
         ) from err
     shown = excerpt(address)[1:-1]
     try:
+        _check_port(address)
         _handshake(address)
         return cast(Any, Client)(address, timeout=CONNECT_TIMEOUT_S)
     except Exception as err:  # refused, timed out, a bad address, or not a Dask scheduler
@@ -136,6 +137,27 @@ def connect(address: str) -> Any:
             f"--scheduler {shown}: what answers there is not a Dask scheduler ({why}); "
             "give the scheduler's address, e.g. tcp://host:8786, not its dashboard's"
         ) from err
+
+
+def _check_port(address: str) -> None:
+    """Refuse a port no socket can have (0, above 65535) as distributed's parsing refuses others.
+
+    distributed parses ``tcp://host:99999`` and then retries the connection, whose
+    ``OverflowError`` it hides, until its timeout: "cannot reach ... Timed out".
+
+    Raises
+    ------
+    ValueError
+        When ``address`` names a host and port and the port is not 1 to 65535.
+    """
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    scheme, location = parse_address(address)
+    if scheme == "inproc":  # an in-process address has no port
+        return
+    port = parse_host_port(location)[1]
+    if not 1 <= port <= 65535:
+        raise ValueError(f"port {port} is not 1 to 65535")
 
 
 def _handshake(address: str) -> None:

@@ -266,6 +266,23 @@ def test_recover_is_suggested_only_when_it_reads_messages(
     assert report["samples"] > 0
 
 
+@pytest.mark.parametrize("tenths", [0.3, 1.0])
+def test_recover_that_reads_no_message_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], tenths: float
+) -> None:
+    # --recover on a file cut off before its first whole chunk read no schema, channel or
+    # message, and the error blamed the mapping: "no field for input 'u' ... the log has none".
+    data = (Path(__file__).parents[2] / "sample_logs" / "three_tank_hstf.mcap").read_bytes()
+    log = tmp_path / "log.mcap"
+    log.write_bytes(data[: int(len(data) * tenths / 10)])
+    out = tmp_path / "out"
+    args = [str(log), "--model", "three_tank_hstf", "--out", str(out), "--recover"]
+    err = cli_error(["analyze", *args], capsys)
+    assert "--recover reads no message" in err, err
+    assert "the log has none" not in err and "\n" not in err.strip()
+    assert not out.exists()
+
+
 def test_inspect_describes_unfinished_mcap_storage_and_names_no_option_it_lacks(
     tmp_path: Path,
 ) -> None:

@@ -114,7 +114,13 @@ def test_scheduler_errors_are_one_line(tmp_path: Path, monkeypatch: pytest.Monke
     assert "\n" not in str(err.value)
     assert not (tmp_path / "out").exists()  # refused before anything was written
     # an address that is none is not a connection that timed out (it said "cannot reach")
-    for address, why in (("host:xx", "invalid literal"), ("foo://h:1", "unknown address")):
+    # a port no socket can have: its connection "timed out" after CONNECT_TIMEOUT_S too
+    for address, why in (
+        ("host:xx", "invalid literal"),
+        ("foo://h:1", "unknown address"),
+        ("tcp://127.0.0.1:99999", "port 99999 is not 1 to 65535"),
+        ("tcp://[::1]:0", "port 0 is not 1 to 65535"),
+    ):
         with pytest.raises(OptionError, match=f"not a scheduler address \\({why}.*tcp://host"):
             run_batch([log], TANK, out_dir=tmp_path / "out", scheduler=address)
     assert not (tmp_path / "out").exists()
