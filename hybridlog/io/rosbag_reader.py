@@ -35,6 +35,7 @@ What this adds to rosbags' readers:
 from __future__ import annotations
 
 import contextlib
+import re
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -286,6 +287,12 @@ class BagSource(MessageSource):
                 "ROS 2 bag; open the .mcap file itself (read with the mcap library)"
             )
         if "index looks damaged" in text:
+            field = re.search(r"Could not read string field '(\w+)'", text)
+            if field is not None:  # rosbags reads a missing field and bytes not UTF-8 alike
+                return (
+                    f"{self.path}: damaged ROS 1 bag: a connection record's {field[1]!r} is "
+                    "missing or not UTF-8 text (a corrupt file: ROS names are ASCII)"
+                )
             return (
                 f"{self.path}: damaged ROS 1 bag: its index cannot be read (the file is cut off "
                 "or corrupt; `rosbag reindex` may rebuild it)"

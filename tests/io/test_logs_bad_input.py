@@ -386,6 +386,31 @@ def test_truncated_ros1_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
     refused(log, capsys, "cut.bag")
 
 
+def test_a_ros1_topic_name_that_is_not_utf8_is_named_not_called_a_cut_index(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # rosbags' writer, the topic's bytes then made invalid UTF-8: refused as "its index
+    # cannot be read (the file is cut off or corrupt; `rosbag reindex` may rebuild it)"
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    number = store.types["std_msgs/msg/Float64"]
+    log = tmp_path / "names.bag"
+    with Writer(log) as writer:
+        connections = [
+            writer.add_connection(topic, "std_msgs/msg/Float64", typestore=store)
+            for topic in ("/u", "/yQ")
+        ]
+        for k in range(10):
+            for connection in connections:
+                data = store.serialize_ros1(number(data=float(k)), "std_msgs/msg/Float64")
+                writer.write(connection, 10**9 + k * 10**8, data)
+    log.write_bytes(log.read_bytes().replace(b"/yQ", b"/y\xff"))
+    message = refused(log, capsys, "names.bag", "'topic' is missing or not UTF-8 text")
+    assert "reindex" not in message
+
+
 def test_unindexed_ros1_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     log = simulated(tmp_path / "open.bag")
     at = find(log, b"index_pos=") + len(b"index_pos=")
