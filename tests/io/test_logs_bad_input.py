@@ -470,6 +470,54 @@ def test_a_db3_topic_name_stored_as_a_blob_is_refused(opened: str, tmp_path: Pat
     assert str(refusal.value) == f"{tmp_path / opened}: topic #1: its name is b'/u', not text"
 
 
+@pytest.mark.parametrize(
+    ("stored", "said"),
+    [("'abc'", "text ('abc')"), ("12", "a number ('12')"), ("NULL", "NULL")],
+)
+@pytest.mark.parametrize("opened", ["bag", "bag/bag.db3"])
+def test_a_db3_message_stored_as_other_than_bytes_is_refused(
+    stored: str, said: str, opened: str, tmp_path: Path
+) -> None:
+    # rosbags' writer; a sqlite3 column holds anything, and rosbags hands it on as it is:
+    # text, a number or NULL for a message's data was a TypeError (a traceback)
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from hybridlog.io import ReadOptions, SignalSpec, load_signals
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    number = store.types["std_msgs/msg/Float64"]
+    with Writer(tmp_path / "bag", version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        connections = [
+            writer.add_connection(topic, "std_msgs/msg/Float64", typestore=store)
+            for topic in ("/u", "/y")
+        ]
+        for k in range(10):
+            for connection in connections:
+                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
+                writer.write(connection, 10**9 + k * 10**8, data)
+    with sqlite3.connect(tmp_path / "bag" / "bag.db3") as connection:
+        # without the NOT NULL of rosbags' table, as another tool may make it
+        connection.executescript(
+            "create table copied as select * from messages; drop table messages; "
+            f"alter table copied rename to messages; update messages set data = {stored} "
+            "where id = 5"
+        )
+    connection.close()
+    expected = (
+        f"{tmp_path / opened}: topic '/u': the message logged at t=1.2 s is {said}, not "
+        "serialised bytes"
+    )
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1",), dt=0.1)
+    with pytest.raises(LogError) as refusal:
+        load_signals(tmp_path / opened, spec, ReadOptions(maps=("u=/u.data", "y=/y.data")))
+    assert str(refusal.value) == expected
+    assert (
+        expected.removeprefix(f"{tmp_path / opened}: ")
+        in inspect_log(tmp_path / opened)["problems"][0]
+    )
+
+
 def test_folder_that_is_no_bag(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
