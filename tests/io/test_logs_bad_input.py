@@ -518,6 +518,56 @@ def test_a_db3_message_stored_as_other_than_bytes_is_refused(
     )
 
 
+@pytest.mark.parametrize("opened", ["bag", "bag/bag.db3"])
+def test_a_db3_whose_write_ahead_log_holds_messages_is_refused(opened: str, tmp_path: Path) -> None:
+    # rosbags' writer, then messages written as a recorder with SQLite's write-ahead log
+    # does (rosbag2's 'resilient' preset) and not yet checkpointed: rosbags opens the file
+    # immutable, so the 10 messages of the first second were read and the rest left out.
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from hybridlog.io import ReadOptions, SignalSpec, load_signals
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    number = store.types["std_msgs/msg/Float64"]
+    with Writer(tmp_path / "bag", version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        connections = [
+            writer.add_connection(topic, "std_msgs/msg/Float64", typestore=store)
+            for topic in ("/u", "/y")
+        ]
+        for k in range(10):
+            for connection in connections:
+                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
+                writer.write(connection, 10**9 + k * 10**8, data)
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1",), dt=0.1)
+    options = ReadOptions(maps=("u=/u.data", "y=/y.data"))
+    database = tmp_path / "bag" / "bag.db3"
+    recorder = sqlite3.connect(database)  # still recording: its log not checkpointed
+    try:
+        recorder.execute("pragma journal_mode=wal")
+        recorder.execute("pragma wal_autocheckpoint=0")
+        for k in range(10, 30):
+            for topic_id in (1, 2):
+                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
+                recorder.execute(
+                    "insert into messages (topic_id, timestamp, data) values (?, ?, ?)",
+                    (topic_id, 10**9 + k * 10**8, bytes(data)),
+                )
+            recorder.commit()
+        with pytest.raises(LogError) as refusal:
+            load_signals(tmp_path / opened, spec, options)
+        message = str(refusal.value)
+        assert message.startswith(f"{database}: bag.db3-wal beside it holds writes not yet in")
+        assert f"sqlite3 {database} 'PRAGMA wal_checkpoint(TRUNCATE)'" in message
+        with pytest.raises(LogError, match=r"bag\.db3-wal beside it"):
+            inspect_log(tmp_path / opened)
+    finally:
+        recorder.close()  # the last connection checkpoints the log into the database
+    assert not (tmp_path / "bag" / "bag.db3-wal").exists()
+    signals = load_signals(tmp_path / opened, spec, options)
+    np.testing.assert_array_equal(signals.inputs[:, 0], np.arange(30.0))
+
+
 def test_folder_that_is_no_bag(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
