@@ -148,17 +148,19 @@ def refuse_unset_stamps(path: str, topic: str, stamps: IntArray, log_times: IntA
     """Refuse ``--time header`` on a topic whose ``header.stamp`` is 0 in several messages.
 
     A publisher that never fills the header sends 0 in every message; a zero can be a real
-    stamp only once, and first (simulated time starting at 0).  Read as times, repeated
-    zeros were "the same header.stamp as the one before", whose remedy, ``--sort``, kept one
-    message; one zero after stamps of 10 s was, with ``--sort``, moved to the start of the
-    log as a sample at t=0 s (with ``--max-gap`` long enough, without a word).
+    stamp only once, and in time order: first (simulated time starting at 0), or after
+    negative stamps only (a clock counting from an event, through 0).  Read as times,
+    repeated zeros were "the same header.stamp as the one before", whose remedy, ``--sort``,
+    kept one message; one zero after stamps of 10 s was, with ``--sort``, moved to the start
+    of the log as a sample at t=0 s (with ``--max-gap`` long enough, without a word).  The
+    one zero of stamps from -1 s to 1 s was refused as unset.
     """
     unset = stamps == 0
     count = int(np.count_nonzero(unset))
     if count == 0:
         return
     first = int(np.argmax(unset))
-    if count == 1 and not stamps[:first].any():
+    if count == 1 and bool((stamps[:first] < 0).all()):
         return
     if count == 1:
         raise LogError(

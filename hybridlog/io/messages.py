@@ -75,7 +75,15 @@ from hybridlog.io.message_topics import (
     topic_fields,
 )
 from hybridlog.io.options import ReadOptions
-from hybridlog.io.source import FieldKey, LabelSeries, Reading, Series, SourceInfo, seconds_of
+from hybridlog.io.source import (
+    FieldKey,
+    LabelSeries,
+    Reading,
+    Series,
+    SourceInfo,
+    format_ns,
+    seconds_of,
+)
 from hybridlog.io.summary import describe_steps
 from hybridlog.io.topic_reader import TopicReader
 from hybridlog.io.value_counter import ValueCounter
@@ -89,6 +97,12 @@ BATCH_BYTES = 16 * 2**20
 
 _LATEST_NS = 2**63 - 1
 """The latest log time (ns) hybridlog holds: its time arrays are int64."""
+
+_BYTES = (bytes, bytearray, memoryview)
+"""What a message's serialised data may be, as the libraries return it."""
+
+_KINDS: dict[type, str] = {str: "text", int: "a number", float: "a number", type(None): "NULL"}
+"""What else a sqlite3 column gives, in words."""
 
 
 class MessageSource(abc.ABC):
@@ -161,6 +175,15 @@ class MessageSource(abc.ABC):
                         f"{self.path}: topic {item[0]!r}: a message's log time, {log_time} ns, "
                         "is after the year 2262 (2^63 ns), which no clock records: a damaged or "
                         "mis-stamped log"
+                    )
+                data = item[2]
+                if type(data) is not bytes and not isinstance(data, _BYTES):
+                    # a sqlite3 column holds anything: text was taken for bytes, a traceback
+                    raise LogError(
+                        f"{self.path}: topic {item[0]!r}: the message logged at "
+                        f"t={format_ns(log_time)} s is {_KINDS.get(type(data), 'a value')}"
+                        f"{'' if data is None else f' ({excerpt(data, 40)})'}, not serialised "
+                        "bytes"
                     )
                 yield item
         except HybridlogError:

@@ -19,6 +19,9 @@ What this adds to rosbags' readers:
   ``reading["metadata"]`` says so and the storage files, which hold the messages, win.
   Storage files in the folder that ``metadata.yaml`` does not list, which rosbags passes
   over, are named in ``reading["unlisted_files"]`` (:func:`unlisted_storage_files`).
+- A ``.db3`` file is checked against the size its header records and for a write-ahead log
+  beside it holding committed writes (:func:`check_sqlite`): rosbags opens the file
+  immutable and would leave those messages out without a word.
 - MCAP storage files are checked like bare MCAP files first (CRCs, footer; see
   :func:`~hybridlog.io.mcap_reader.check_mcap`), and whatever rosbags raises on a damaged
   file becomes a :class:`~hybridlog.errors.LogError` naming the file.
@@ -35,6 +38,8 @@ What this adds to rosbags' readers:
 from __future__ import annotations
 
 import contextlib
+import re
+import shlex
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -98,6 +103,50 @@ def check_sqlite(path: Path) -> None:
             f"{path}: damaged SQLite database: {size} bytes where its header records "
             f"{pages} pages of {page_size} bytes ({page_size * pages} bytes); the file is cut off"
         )
+    wal = path.with_name(f"{path.name}-wal")
+    committed = _committed_wal_frames(wal)
+    if committed:
+        raise LogError(
+            f"{path}: {wal.name} beside it holds writes not yet in the database "
+            f"({committed} pages; the recorder was killed or is still recording), which "
+            "the bag reader would leave out; move them in with: "
+            f"sqlite3 {shlex.quote(str(path))} 'PRAGMA wal_checkpoint(TRUNCATE)'"
+        )
+
+
+_WAL_MAGIC = (0x377F0682, 0x377F0683)
+"""The first four bytes (big-endian) of an SQLite write-ahead log."""
+
+
+def _committed_wal_frames(wal: Path) -> int:
+    """The pages of the transactions committed to an SQLite write-ahead log (0: none, no log).
+
+    rosbags opens a ``.db3`` file immutable, as it has to (a reader must not write beside a
+    bag), and SQLite then reads the database file alone: what a recorder wrote to
+    ``<file>-wal`` and had not checkpointed into it -- the last seconds of a killed
+    recording -- was left out without a word.  A frame belongs to the log when its salts
+    are the header's; the pages up to its last commit frame were committed.  (Frames a
+    checkpoint already copied in are counted too: the log does not say which; the
+    checkpoint that the error suggests empties it either way.)
+    """
+    try:
+        with wal.open("rb") as handle:
+            header = handle.read(32)
+            if len(header) < 32 or int.from_bytes(header[:4], "big") not in _WAL_MAGIC:
+                return 0
+            page_size = int.from_bytes(header[8:12], "big")
+            page_size = 65536 if page_size == 1 else page_size
+            salts, size = header[16:24], wal.stat().st_size
+            frames = committed = 0
+            while len(frame := handle.read(24)) == 24 and frame[8:16] == salts:
+                if handle.seek(page_size, 1) > size:  # a frame cut off: never committed
+                    break
+                frames += 1
+                if int.from_bytes(frame[4:8], "big"):  # a commit frame: the database's size
+                    committed = frames
+            return committed
+    except OSError:
+        return 0
 
 
 def _said(text: str) -> str:
@@ -286,6 +335,12 @@ class BagSource(MessageSource):
                 "ROS 2 bag; open the .mcap file itself (read with the mcap library)"
             )
         if "index looks damaged" in text:
+            field = re.search(r"Could not read string field '(\w+)'", text)
+            if field is not None:  # rosbags reads a missing field and bytes not UTF-8 alike
+                return (
+                    f"{self.path}: damaged ROS 1 bag: a connection record's {field[1]!r} is "
+                    "missing or not UTF-8 text (a corrupt file: ROS names are ASCII)"
+                )
             return (
                 f"{self.path}: damaged ROS 1 bag: its index cannot be read (the file is cut off "
                 "or corrupt; `rosbag reindex` may rebuild it)"

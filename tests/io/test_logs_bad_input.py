@@ -386,6 +386,31 @@ def test_truncated_ros1_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) 
     refused(log, capsys, "cut.bag")
 
 
+def test_a_ros1_topic_name_that_is_not_utf8_is_named_not_called_a_cut_index(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # rosbags' writer, the topic's bytes then made invalid UTF-8: refused as "its index
+    # cannot be read (the file is cut off or corrupt; `rosbag reindex` may rebuild it)"
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    number = store.types["std_msgs/msg/Float64"]
+    log = tmp_path / "names.bag"
+    with Writer(log) as writer:
+        connections = [
+            writer.add_connection(topic, "std_msgs/msg/Float64", typestore=store)
+            for topic in ("/u", "/yQ")
+        ]
+        for k in range(10):
+            for connection in connections:
+                data = store.serialize_ros1(number(data=float(k)), "std_msgs/msg/Float64")
+                writer.write(connection, 10**9 + k * 10**8, data)
+    log.write_bytes(log.read_bytes().replace(b"/yQ", b"/y\xff"))
+    message = refused(log, capsys, "names.bag", "'topic' is missing or not UTF-8 text")
+    assert "reindex" not in message
+
+
 def test_unindexed_ros1_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     log = simulated(tmp_path / "open.bag")
     at = find(log, b"index_pos=") + len(b"index_pos=")
@@ -443,6 +468,104 @@ def test_a_db3_topic_name_stored_as_a_blob_is_refused(opened: str, tmp_path: Pat
     with pytest.raises(LogError) as refusal:
         inspect_log(tmp_path / opened)
     assert str(refusal.value) == f"{tmp_path / opened}: topic #1: its name is b'/u', not text"
+
+
+@pytest.mark.parametrize(
+    ("stored", "said"),
+    [("'abc'", "text ('abc')"), ("12", "a number ('12')"), ("NULL", "NULL")],
+)
+@pytest.mark.parametrize("opened", ["bag", "bag/bag.db3"])
+def test_a_db3_message_stored_as_other_than_bytes_is_refused(
+    stored: str, said: str, opened: str, tmp_path: Path
+) -> None:
+    # rosbags' writer; a sqlite3 column holds anything, and rosbags hands it on as it is:
+    # text, a number or NULL for a message's data was a TypeError (a traceback)
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from hybridlog.io import ReadOptions, SignalSpec, load_signals
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    number = store.types["std_msgs/msg/Float64"]
+    with Writer(tmp_path / "bag", version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        connections = [
+            writer.add_connection(topic, "std_msgs/msg/Float64", typestore=store)
+            for topic in ("/u", "/y")
+        ]
+        for k in range(10):
+            for connection in connections:
+                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
+                writer.write(connection, 10**9 + k * 10**8, data)
+    with sqlite3.connect(tmp_path / "bag" / "bag.db3") as connection:
+        # without the NOT NULL of rosbags' table, as another tool may make it
+        connection.executescript(
+            "create table copied as select * from messages; drop table messages; "
+            f"alter table copied rename to messages; update messages set data = {stored} "
+            "where id = 5"
+        )
+    connection.close()
+    expected = (
+        f"{tmp_path / opened}: topic '/u': the message logged at t=1.2 s is {said}, not "
+        "serialised bytes"
+    )
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1",), dt=0.1)
+    with pytest.raises(LogError) as refusal:
+        load_signals(tmp_path / opened, spec, ReadOptions(maps=("u=/u.data", "y=/y.data")))
+    assert str(refusal.value) == expected
+    assert (
+        expected.removeprefix(f"{tmp_path / opened}: ")
+        in inspect_log(tmp_path / opened)["problems"][0]
+    )
+
+
+@pytest.mark.parametrize("opened", ["bag", "bag/bag.db3"])
+def test_a_db3_whose_write_ahead_log_holds_messages_is_refused(opened: str, tmp_path: Path) -> None:
+    # rosbags' writer, then messages written as a recorder with SQLite's write-ahead log
+    # does (rosbag2's 'resilient' preset) and not yet checkpointed: rosbags opens the file
+    # immutable, so the 10 messages of the first second were read and the rest left out.
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from hybridlog.io import ReadOptions, SignalSpec, load_signals
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    number = store.types["std_msgs/msg/Float64"]
+    with Writer(tmp_path / "bag", version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        connections = [
+            writer.add_connection(topic, "std_msgs/msg/Float64", typestore=store)
+            for topic in ("/u", "/y")
+        ]
+        for k in range(10):
+            for connection in connections:
+                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
+                writer.write(connection, 10**9 + k * 10**8, data)
+    spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1",), dt=0.1)
+    options = ReadOptions(maps=("u=/u.data", "y=/y.data"))
+    database = tmp_path / "bag" / "bag.db3"
+    recorder = sqlite3.connect(database)  # still recording: its log not checkpointed
+    try:
+        recorder.execute("pragma journal_mode=wal")
+        recorder.execute("pragma wal_autocheckpoint=0")
+        for k in range(10, 30):
+            for topic_id in (1, 2):
+                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
+                recorder.execute(
+                    "insert into messages (topic_id, timestamp, data) values (?, ?, ?)",
+                    (topic_id, 10**9 + k * 10**8, bytes(data)),
+                )
+            recorder.commit()
+        with pytest.raises(LogError) as refusal:
+            load_signals(tmp_path / opened, spec, options)
+        message = str(refusal.value)
+        assert message.startswith(f"{database}: bag.db3-wal beside it holds writes not yet in")
+        assert f"sqlite3 {database} 'PRAGMA wal_checkpoint(TRUNCATE)'" in message
+        with pytest.raises(LogError, match=r"bag\.db3-wal beside it"):
+            inspect_log(tmp_path / opened)
+    finally:
+        recorder.close()  # the last connection checkpoints the log into the database
+    assert not (tmp_path / "bag" / "bag.db3-wal").exists()
+    signals = load_signals(tmp_path / opened, spec, options)
+    np.testing.assert_array_equal(signals.inputs[:, 0], np.arange(30.0))
 
 
 def test_folder_that_is_no_bag(

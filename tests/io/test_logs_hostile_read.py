@@ -113,6 +113,23 @@ def test_one_stamp_of_zero_is_a_time_like_any_other(tmp_path: Path, kind: str) -
     np.testing.assert_array_equal(signals.outputs[:, 0], -np.arange(N, dtype=float))
 
 
+def test_a_stamp_of_zero_between_negative_and_positive_stamps_is_a_time(tmp_path: Path) -> None:
+    # A clock counting from an event passes through 0 once, in order: the zero was refused
+    # as "the publisher did not set it" (ROS 2 stamps are signed; ROS 1's are not).
+    stamps = [(k - N // 2) * 100_000_000 for k in range(N)]
+    log = _ros2_mcap_with_stamps(tmp_path / "stamped.mcap", stamps)
+    signals = load(log, "u=/u.x", "y=/y.x", time="header")
+    np.testing.assert_allclose(signals.time, 0.1 * (np.arange(N) - N // 2), atol=1e-12)
+    np.testing.assert_array_equal(signals.outputs[:, 0], -np.arange(N, dtype=float))
+    assert not any("header.stamp is 0" in p for p in inspect_log(log)["problems"])
+    # a zero after positive stamps is still one the publisher did not set
+    late = [(k + 1) * 100_000_000 for k in range(N - 1)] + [0]
+    with pytest.raises(LogError, match=f"header.stamp is 0 in message {N} of {N}"):
+        load(
+            _ros2_mcap_with_stamps(tmp_path / "late.mcap", late), "u=/u.x", "y=/y.x", time="header"
+        )
+
+
 # ------------------------------------------------------------------ times in another unit
 
 
