@@ -265,6 +265,7 @@ def _dropped_interrupt(
 
 
 def _aborted() -> NoReturn:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a dropped Ctrl-C sent again: ended already
     sys.stderr.write("hybridlog: aborted\n")
     sys.exit(130)
 
