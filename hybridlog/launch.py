@@ -19,9 +19,10 @@ from __future__ import annotations
 import contextlib
 import io
 import os
+import signal
 import sys
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, TextIO
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, NoReturn, TextIO
 
 if TYPE_CHECKING:
     from _typeshed import ReadableBuffer
@@ -226,8 +227,52 @@ def local_batch_jobs(args: Sequence[str]) -> int:
     return int(jobs) if jobs.isascii() and jobs.isdigit() else 1
 
 
+_DROPPED: list[KeyboardInterrupt] = []
+"""A Ctrl-C that Python dropped before the CLI handles signals (:func:`_dropped_interrupt`)."""
+
+_SEND_AGAIN_S = 0.05
+"""How long after a dropped Ctrl-C ``SIGINT`` is sent again (as the CLI's own hook waits)."""
+
+
+def _dropped_interrupt(
+    previous: Callable[[sys.UnraisableHookArgs], object],
+) -> Callable[[sys.UnraisableHookArgs], None]:
+    """A ``sys.unraisablehook`` that keeps a Ctrl-C Python dropped, and sends it again.
+
+    Python's ``KeyboardInterrupt`` raised inside a callback it calls from C (the import
+    system's module-lock ``weakref`` callback, while the CLI is imported) is dropped with
+    "Exception ignored in" and a traceback: ``compare`` Ctrl-C'd 65 ms after it started went
+    on to write its reports and exit 0.  Kept for :func:`main` to end on, and ``SIGINT`` is
+    sent again from a thread, for one dropped after that check and before the CLI's own
+    handling (:mod:`hybridlog.cli_process`, whose hook passes any other to this one).
+    """
+
+    def hook(unraisable: sys.UnraisableHookArgs) -> None:
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            previous(unraisable)
+            return
+        _DROPPED.append(unraisable.exc_value)
+        import threading  # here: a dropped Ctrl-C only
+        import time
+
+        def send_again() -> None:
+            time.sleep(_SEND_AGAIN_S)
+            os.kill(os.getpid(), signal.SIGINT)
+
+        threading.Thread(target=send_again, daemon=True).start()
+
+    return hook
+
+
+def _aborted() -> NoReturn:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a dropped Ctrl-C sent again: ended already
+    sys.stderr.write("hybridlog: aborted\n")
+    sys.exit(130)
+
+
 def main() -> None:
     """The console script ``hybridlog`` and ``python -m hybridlog``: :func:`hybridlog.cli.main`."""
+    sys.unraisablehook = _dropped_interrupt(sys.unraisablehook)
     open_standard_descriptors()
     single_threaded_blas()
     writable_matplotlib_folder()
@@ -245,6 +290,7 @@ def main() -> None:
                 start_forkserver()
         from hybridlog.cli import main as run_cli
     except KeyboardInterrupt:  # Ctrl-C before the CLI handles it: no traceback of imports
-        sys.stderr.write("hybridlog: aborted\n")
-        sys.exit(130)
+        _aborted()
+    if _DROPPED:
+        _aborted()
     run_cli()

@@ -93,6 +93,7 @@ __all__ = [
     "options_dict",
     "parse_options",
     "read_text",
+    "read_value",
     "shown",
 ]
 
@@ -426,6 +427,26 @@ def read_text(cls: type[Any], name: str, text: str) -> Any:
     """
     field, kind = _kinds(cls)[name]
     return _read(text, field, kind, text=True, base="")
+
+
+def read_value(cls: type[Any], name: str, value: object) -> Any:
+    """A Python caller's ``value`` of the option ``name`` of ``cls`` alone, as its type reads it.
+
+    As :func:`read_text`, for a value already typed (the field of an options object a
+    notebook built, ``ChiuOptions(radius="0.3")``): of the option's type (a string is not
+    read as the number it spells), choices, range and ``check``.  A NumPy scalar is the
+    Python number it holds.
+
+    Raises
+    ------
+    ValueError
+        The reason alone: the caller names the option.
+    """
+    field, kind = _kinds(cls)[name]
+    item = getattr(value, "item", None)
+    if type(value).__module__ == "numpy" and callable(item):
+        value = item()
+    return _read(value, field, kind, text=False, base="")
 
 
 def _read(raw: Any, field: dataclasses.Field[Any], kind: _Kind, *, text: bool, base: str) -> Any:

@@ -11,12 +11,15 @@ loading a reader.
 
 from __future__ import annotations
 
+import contextlib
 import math
+import numbers
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
-from hybridlog.errors import OptionError
+from hybridlog.errors import OptionError, excerpt
 
 Resample = Literal["nearest", "linear"]
 TimeSource = Literal["log", "header"]
@@ -107,7 +110,19 @@ class ReadOptions:
     msg_dirs: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        """Check the values that have a fixed set or range (the one place they are checked)."""
+        """Check every value: its type, then a fixed set or range (the one place they are checked).
+
+        The command line gives each its type; a notebook may not: ``max_gap="0.5"`` was a
+        ``TypeError``, ``maps="y1=level"`` and ``msg_dirs="msgs"`` were read letter by letter
+        (``--map 'y'``), and ``sort="no"`` sorted.  The lists are kept as tuples of ``str``.
+        """
+        for name in ("maps", "msg_dirs"):
+            object.__setattr__(self, name, _texts(getattr(self, name), name))
+        for name in ("split_gaps", "sort", "drop_nonfinite", "recover"):
+            if not isinstance(getattr(self, name), bool):
+                raise _wrong(name, "True or False", getattr(self, name))
+        if self.max_gap is not None:
+            object.__setattr__(self, "max_gap", _seconds(self.max_gap))
         check_resample(self.resample)
         check_max_gap(self.max_gap)
         for folder in self.msg_dirs:  # a CSV or Parquet log never reads it: it was ignored
@@ -118,6 +133,63 @@ class ReadOptions:
             raise OptionError(
                 f"--time: expected one of {', '.join(TIME_SOURCES)}, got {self.time!r}"
             )
+
+
+_OPTION_NAMES = {
+    "maps": "--map",
+    "msg_dirs": "--msg-dir",
+    "max_gap": "--max-gap",
+    "split_gaps": "--split-gaps",
+    "sort": "--sort",
+    "drop_nonfinite": "--drop-nonfinite",
+    "recover": "--recover",
+}
+"""Each :class:`ReadOptions` field a Python caller may give a value of the wrong type, and
+its command-line option."""
+
+
+def _wrong(name: str, expected: str, value: object) -> OptionError:
+    """A :class:`ReadOptions` field of the wrong type, as ``jobs.arguments`` words it."""
+    kind = type(value)
+    module = "" if kind.__module__ == "builtins" else f"{kind.__module__}."
+    return OptionError(
+        f"ReadOptions {name} ({_OPTION_NAMES[name]}): expected {expected}, "
+        f"got the {module}{kind.__qualname__} {excerpt(value)}"
+    )
+
+
+def _seconds(value: object) -> float:
+    """``max_gap`` as a ``float``: a real number (a NumPy one too), not a ``bool``.
+
+    An ``int`` beyond float64's range is infinite, for :func:`check_max_gap` to refuse.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise _wrong("max_gap", "a number of seconds or None", value)
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
+def _texts(value: object, name: str) -> tuple[str, ...]:
+    """``maps`` or ``msg_dirs`` as a tuple of ``str``: a list or tuple of them (paths too).
+
+    One ``str`` is refused, not read as its letters.
+    """
+    paths = name == "msg_dirs"
+    expected = "a list of paths" if paths else "a list of strings"
+    if isinstance(value, str | bytes | bytearray) or not isinstance(value, list | tuple):
+        one = " (write [x] for one)" if isinstance(value, str) else ""
+        raise _wrong(name, expected + one, value)
+    items: list[str] = []
+    for item in value:
+        if paths and isinstance(item, os.PathLike):
+            with contextlib.suppress(TypeError):  # an __fspath__ giving bytes or no path
+                item = os.fspath(item)
+        if not isinstance(item, str):
+            raise _wrong(name, expected, item)
+        items.append(item)
+    return tuple(items)
 
 
 def msg_dir_problem(folder: str) -> str | None:

@@ -215,6 +215,8 @@ def run_batch(
         raise OptionError(f"--plots: expected one of {', '.join(PLOT_CHOICES)}, got {plots!r}")
     found = logs if isinstance(logs, FoundLogs) else batch_logs(logs)
     paths, searched = found.paths, found.searched
+    if not paths:  # the command line requires LOGS; run_batch([]) wrote "0 logs: all analysed"
+        raise OptionError("logs (LOGS): no log given; name at least one log, bag or folder of logs")
     notes: list[str] = list(found.notes)
     if read is not None and read.recover:  # refused when it applies to no log
         recovered = recover_note(paths)

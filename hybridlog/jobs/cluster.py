@@ -44,7 +44,7 @@ from hybridlog.estimators.chiu import ChiuOptions, design_observer, mode_classif
 from hybridlog.estimators.kmeans import KMeansOptions
 from hybridlog.estimators.lmi import ObserverGains
 from hybridlog.estimators.observer_options import check_cluster_modes, clustering_error
-from hybridlog.estimators.options import OptionSource, parse_options, shown
+from hybridlog.estimators.options import OptionSource, parse_options, read_value, shown
 from hybridlog.estimators.registry import resolve_estimator
 from hybridlog.estimators.switched_observer import LinearModes
 from hybridlog.io import ReadOptions
@@ -336,6 +336,29 @@ def _model_defaults(
     return dataclasses.replace(options, **{k: getattr(parsed, k) for k in table})
 
 
+def _values_read(options: _Options | None, parameter: str) -> _Options | None:
+    """A caller's options object with each value read as its option reads a model file's.
+
+    A dataclass takes any value: ``ChiuOptions(radius="0.3")`` clustered with 0.3 and wrote
+    ``"radius": "0.3"`` into centers.json, and ``radius=1e-9``, outside the range ``--radius``
+    is held to, ran.  The command line's and the model file's values were read so already.
+
+    Raises
+    ------
+    OptionError
+        ``chiu.radius: expected a finite number, got ...``: the parameter and its field.
+    """
+    if options is None:
+        return None
+    values = {}
+    for field in dataclasses.fields(options):
+        try:
+            values[field.name] = read_value(type(options), field.name, getattr(options, field.name))
+        except ValueError as err:
+            raise OptionError(f"{parameter}.{field.name}: {err}") from None
+    return dataclasses.replace(options, **values)
+
+
 def _check_clustering(
     chiu: ChiuOptions, model: HybridModel, given: Collection[str], *, flags: bool
 ) -> None:
@@ -588,6 +611,7 @@ def discover_modes(
     kind = "hybridlog.estimators.kmeans.KMeansOptions"
     arguments.instance(kmeans, KMeansOptions, "kmeans", kind)
     arguments.names(given, "given", [f.name for f in dataclasses.fields(ChiuOptions)])
+    chiu, kmeans = _values_read(chiu, "chiu"), _values_read(kmeans, "kmeans")
     read = arguments.read_options(read)
     target, picture = check_cluster_outputs(
         log, model_ref, out=out, plot=plot, force=force, read=read

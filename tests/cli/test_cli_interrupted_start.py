@@ -51,3 +51,31 @@ def test_the_forkserver_starts_with_sigint_ignored_and_the_caller_keeps_its_own(
         [sys.executable, "-c", FORKSERVER_SIGINT], capture_output=True, text=True, check=True
     )
     assert shown.stdout.split() == ["True", "True"]
+
+
+DROPPED_WHILE_IMPORTED = """
+import sys, types
+from hybridlog import launch
+
+class _Dropped:
+    def __del__(self):  # Python drops what a finaliser raises: "Exception ignored in"
+        raise KeyboardInterrupt
+
+class _Cli(types.ModuleType):
+    def __getattr__(self, name):
+        _Dropped()  # Ctrl-C came inside the import system's weakref callback
+        return lambda: print("ran to the end")
+
+sys.modules["hybridlog.cli"] = _Cli("hybridlog.cli")
+sys.argv = ["hybridlog", "models"]
+launch.main()
+"""
+
+
+def test_ctrl_c_python_drops_while_the_cli_is_imported_still_aborts() -> None:
+    # `compare` Ctrl-C'd 65 ms after it started printed "Exception ignored in: <function
+    # _get_module_lock.<locals>.cb ...>", a traceback, then wrote its reports and exited 0
+    ended = subprocess.run(
+        [sys.executable, "-c", DROPPED_WHILE_IMPORTED], capture_output=True, text=True
+    )
+    assert (ended.returncode, ended.stdout, ended.stderr) == (130, "", "hybridlog: aborted\n")

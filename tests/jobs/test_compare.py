@@ -145,8 +145,9 @@ def test_cluster_refuses_its_settings_before_reading_the_log(tmp_path: Path) -> 
     folder = tmp_path / "not_a_log.csv"
     folder.mkdir()
     for options, message in (
-        (ChiuOptions(squash=1.0), r"^squash: r_b/r_a must be greater than 1"),
-        (ChiuOptions(output_lags="1"), r"^output_lags: must contain 0"),
+        # each field read as --squash and --output-lags are (named as the field of chiu=)
+        (ChiuOptions(squash=1.0), r"^chiu.squash: 1 is outside \(1, 100\]"),
+        (ChiuOptions(output_lags="1"), r"^chiu.output_lags: must contain 0"),
         (ChiuOptions(accept=0.1, reject=0.2), r"^accept, reject: need 0 < reject < accept"),
     ):
         with pytest.raises(OptionError, match=message):

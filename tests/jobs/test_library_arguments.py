@@ -69,6 +69,10 @@ CALLS = {
         lambda out: run_batch(str(LOG), MODEL, out_dir=out),
         "logs: expected a list of paths (write [path] for one), got the str",
     ),
+    "batch of no log": (  # wrote a batch folder whose summary said "0 logs: all analysed"
+        lambda out: run_batch([], MODEL, out_dir=out),
+        "logs (LOGS): no log given; name at least one log, bag or folder of logs",
+    ),
     "batch jobs a string": (
         lambda out: run_batch([LOG], MODEL, out_dir=out, jobs="2"),
         "jobs (--jobs): expected an int, got the str '2'",
