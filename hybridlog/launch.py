@@ -257,15 +257,20 @@ def _dropped_interrupt(
 
         def send_again() -> None:
             time.sleep(_SEND_AGAIN_S)
-            os.kill(os.getpid(), signal.SIGINT)
+            if not _ABORTED:  # ended on it already: sent now, it would land in the exit
+                os.kill(os.getpid(), signal.SIGINT)
 
         threading.Thread(target=send_again, daemon=True).start()
 
     return hook
 
 
+_ABORTED: list[bool] = []
+"""Set once :func:`main` ends on a Ctrl-C (a dropped one is then not sent again)."""
+
+
 def _aborted() -> NoReturn:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a dropped Ctrl-C sent again: ended already
+    _ABORTED.append(True)
     sys.stderr.write("hybridlog: aborted\n")
     sys.exit(130)
 
