@@ -83,6 +83,7 @@ from hybridlog.model.values import (
     as_covariance,
     as_expressions,
     as_mode_id,
+    as_name,
     as_names,
     as_number,
     as_positive,
@@ -296,7 +297,7 @@ class _Builder:
         estimators = as_table(data.get("estimators", {}), "estimators")
         signals, truth = log_paths(data, groups, tuple(c.name for c in components))
         return HybridModel(
-            name=as_string(data.get("name", "unnamed"), "name"),
+            name=as_name(data.get("name", "unnamed"), "name"),
             description=as_string(data.get("description", ""), "description"),
             reference=as_string(data.get("reference", ""), "reference"),
             timebase=timebase,

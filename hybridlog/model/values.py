@@ -82,6 +82,17 @@ def as_string(value: Any, key: str) -> str:
     return value
 
 
+def as_name(value: Any, key: str) -> str:
+    """A string that shows something: a model's ``name``, which every report and summary heads.
+
+    ``name = ""`` was taken: report.md read "model: (empty code)", summary.md "# Batch:  · imm".
+    """
+    text = as_string(value, key)
+    if not text.strip():
+        raise ModelError(f"{key}: empty; give the model a name, or leave the key out ('unnamed')")
+    return text
+
+
 def as_number(value: Any, key: str) -> float:
     """A finite number (integer or float, not a boolean)."""
     if isinstance(value, bool) or not isinstance(value, int | float):

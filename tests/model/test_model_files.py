@@ -116,6 +116,8 @@ def test_any_text_parses_or_fails_with_a_model_error(text):
             r"noise\.measurement: covariance must be symmetric",
         ),
         ("dt = 0.05", "dt = -1", r"dt: must be positive"),
+        ('name = "pendulum"', 'name = ""', r"name: empty; give the model a name"),
+        ('name = "pendulum"', 'name = " \\t"', r"name: empty; give the model a name"),
         (
             'outputs = ["y_sin", "y_speed"]',
             'outputs = ["y_sin", "theta"]',
