@@ -154,6 +154,14 @@ def _said(text: str) -> str:
     return excerpt(text)[1:-1]
 
 
+def _raised_in(err: BaseException, function: str) -> bool:
+    """Whether ``err`` was raised in a function of that name (its traceback's innermost frame)."""
+    trace = err.__traceback__
+    while trace is not None and trace.tb_next is not None:
+        trace = trace.tb_next
+    return trace is not None and trace.tb_frame.f_code.co_name == function
+
+
 def _qos_text(connection: Any) -> str:
     return repr(getattr(connection.ext, "offered_qos_profiles", None))
 
@@ -353,6 +361,12 @@ class BagSource(MessageSource):
         if "Cannot open database" in text or type(err).__module__.startswith(("sqlite", "apsw")):
             reason = _said(first_line(err).rsplit(": ", 1)[-1])
             return f"{self.path}: not a readable ROS 2 bag database ({reason})"
+        if isinstance(err, KeyError) and _raised_in(err, "get_msgdef"):
+            # rosbags looks a stored definition's encoding up in a dict: its text was the key
+            return (
+                f"{self.path}: a topic's message definition is stored in the encoding {text}, "
+                "which rosbags does not read (ros2msg or ros2idl)"
+            )
         if "File magic is invalid" in text:
             return f"{self.path}: not a {self._format} file (wrong magic bytes)"
         if "seems to be empty" in text:

@@ -738,16 +738,20 @@ def test_a_bag_whose_qos_rosbags_cannot_parse_exits_2_naming_the_topic(
     assert err == f"hybridlog: error: {refusal}\n"
 
 
-def test_a_library_text_keeps_its_quotes(tmp_path: Path) -> None:
-    # rosbags raises KeyError('ros2foo') on an unknown definition encoding: its text was
-    # shown stripped of its quotes (as "string indices must be integers, not 'str" was).
+def test_a_definition_encoding_rosbags_does_not_read_is_named(tmp_path: Path) -> None:
+    # rosbags raises KeyError('ros2foo') on an unknown definition encoding: it read "cannot
+    # open the ros2-db3 file ('ros2foo')" (its text once shown stripped of its quotes, as
+    # "string indices must be integers, not 'str" was).
     db3 = write_streams_bag(tmp_path / "bag", good_streams()) / "bag.db3"
     with sqlite3.connect(db3) as connection:
         connection.execute("update message_definitions set encoding = 'ros2foo'")
     connection.close()
     with pytest.raises(LogError) as error:
         inspect_log(db3)
-    assert str(error.value) == f"{db3}: cannot open the ros2-db3 file ('ros2foo')"
+    assert str(error.value) == (
+        f"{db3}: a topic's message definition is stored in the encoding 'ros2foo', which "
+        "rosbags does not read (ros2msg or ros2idl)"
+    )
 
 
 def test_a_schema_named_without_its_package_is_named_so_not_said_undefined(
