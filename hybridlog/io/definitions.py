@@ -37,6 +37,18 @@ def first_line(err: BaseException) -> str:
     return text.splitlines()[0] if text else type(err).__name__
 
 
+def library_reason(err: BaseException) -> str:
+    """A reading library's error, for the parentheses of a message: its first line, quoted.
+
+    Bytes that are not UTF-8 where a library expects text (a topic or schema name) are
+    said so: Python's own text, quoted, read ``(''utf-8' codec can't decode byte 0xff ...')``.
+    """
+    if isinstance(err, UnicodeDecodeError):
+        byte = err.object[err.start : err.start + 1].hex()
+        return f"text in it is not UTF-8: byte 0x{byte}"
+    return library_reason(err)
+
+
 def normal_type(name: str) -> str:
     """``std_msgs/Float64`` (ROS 1 style) → ``std_msgs/msg/Float64``."""
     parts = name.split("/")
@@ -165,7 +177,7 @@ def parse_definition(msgtype: str, encoding: str, text: str) -> dict[str, Any]:
                 types.update(get_types_from_idl(idl))
     except (TypesysError, ValueError, KeyError, IndexError, AttributeError, TypeError) as err:
         raise DefinitionError(
-            f"its stored message definition cannot be parsed ({excerpt(first_line(err))})"
+            f"its stored message definition cannot be parsed ({library_reason(err)})"
         ) from err
     return types
 
@@ -225,7 +237,7 @@ def _build_typestore(msgtype: str, encoding: str, text: str, *, ros1: bool, extr
         complete_typestore(store, referenced_types(types) | {msgtype}, extra, ros1)
     except (TypesysError, ValueError, KeyError, TypeError, SyntaxError) as err:
         raise DefinitionError(
-            f"its message definition cannot be used ({excerpt(first_line(err))})"
+            f"its message definition cannot be used ({library_reason(err)})"
         ) from err
     if msgtype not in store.fielddefs and types:
         # rosbags names what it parses package/msg/Name: a schema named Float64 defines

@@ -40,7 +40,7 @@ from hybridlog.io.bag_qos import qos_problem
 from hybridlog.io.definitions import (
     DefinitionError,
     definition_key,
-    first_line,
+    library_reason,
     normal_type,
     types_from_msg_dirs,
     typestore_for,
@@ -233,7 +233,7 @@ def rosbags_summary_problem(path: Path, *, storage: bool = False) -> str | None:
         with path.open("rb") as handle:
             summary = SeekingReader(handle).get_summary()
     except Exception as err:  # a summary the mcap library cannot read: let the reader say why
-        return f"its summary cannot be read ({excerpt(first_line(err))})"
+        return f"its summary cannot be read ({library_reason(err)})"
     problem = summary_problem(summary)
     if summary is None or problem is not None:
         return problem
@@ -394,8 +394,8 @@ def _stop_reason(err: BaseException) -> str:
     if name == "EndOfFile" or isinstance(err, (EOFError, struct.error)):
         return "a record cut off at the end of the file"
     if name == "CRCValidationError":
-        return f"a CRC mismatch ({excerpt(first_line(err))})"
-    return f"a damaged record ({excerpt(first_line(err))})"
+        return f"a CRC mismatch ({library_reason(err)})"
+    return f"a damaged record ({library_reason(err)})"
 
 
 class UnfinishedLogError(LogError):
@@ -737,9 +737,9 @@ class McapSource(MessageSource):
     def _damaged(self, err: BaseException) -> LogError:
         if type(err).__name__ == "CRCValidationError":
             return LogError(
-                f"{self.path}: CRC mismatch: the file is corrupt ({excerpt(first_line(err))})"
+                f"{self.path}: CRC mismatch: the file is corrupt ({library_reason(err)})"
             )
-        return LogError(f"{self.path}: damaged MCAP file ({excerpt(first_line(err))})")
+        return LogError(f"{self.path}: damaged MCAP file ({library_reason(err)})")
 
     def _recover_hint(self, topic: str, found: int) -> str:
         """Suggest ``--recover`` only when a sequential read finds more of ``topic``."""

@@ -18,8 +18,7 @@ import struct
 from dataclasses import dataclass, field
 from typing import IO, Any
 
-from hybridlog.errors import excerpt
-from hybridlog.io.definitions import first_line
+from hybridlog.io.definitions import library_reason
 from hybridlog.io.formats import MCAP_MAGIC
 from hybridlog.io.source import seconds_of
 
@@ -94,7 +93,7 @@ class SideRecords:
                 position = content + length
         except Exception as err:  # bytes the mcap library's parsers refuse
             side.problem = (
-                f"the record at byte {position} cannot be read ({excerpt(first_line(err))}): "
+                f"the record at byte {position} cannot be read ({library_reason(err)}): "
                 "attachments and metadata records after it are not listed"
             )
         return side

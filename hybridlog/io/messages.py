@@ -53,7 +53,7 @@ from typing import Any, Self
 import numpy as np
 
 from hybridlog.errors import HybridlogError, LogError, excerpt
-from hybridlog.io.definitions import first_line
+from hybridlog.io.definitions import library_reason
 from hybridlog.io.header_stamps import HEADER_STAMP
 from hybridlog.io.json_schemas import MAX_JSON_DEPTH, json_kind, json_leaves
 from hybridlog.io.mcap_side_records import SideRecords
@@ -142,7 +142,7 @@ class MessageSource(abc.ABC):
 
     def _damaged(self, err: BaseException) -> LogError:
         """The error for a file the library could not read to the end."""
-        return LogError(f"{self.path}: damaged {self._format} file ({excerpt(first_line(err))})")
+        return LogError(f"{self.path}: damaged {self._format} file ({library_reason(err)})")
 
     def _recover_hint(self, topic: str, found: int) -> str:
         """A hint for a topic with fewer messages than the index lists ("" when none helps)."""

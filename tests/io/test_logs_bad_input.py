@@ -411,6 +411,36 @@ def test_a_ros1_topic_name_that_is_not_utf8_is_named_not_called_a_cut_index(
     assert "reindex" not in message
 
 
+@pytest.mark.parametrize("chunked", [True, False])
+def test_an_mcap_topic_name_that_is_not_utf8_is_said_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], chunked: bool
+) -> None:
+    # the mcap library's writer, a topic's bytes not UTF-8 (as a C++ recorder may write
+    # them): "damaged MCAP file (''utf-8' codec can't decode byte 0xff in position 2: ...')"
+    import mcap.data_stream
+    from mcap.writer import Writer
+
+    def raw_text(self: Any, value: str) -> None:
+        data = value.encode("utf-8", "surrogateescape")
+        self.write4(len(data))
+        self.write(data)
+
+    log = tmp_path / "names.mcap"
+    with pytest.MonkeyPatch.context() as patch, log.open("wb") as handle:
+        patch.setattr(mcap.data_stream.RecordBuilder, "write_prefixed_string", raw_text)
+        writer = Writer(handle, use_chunking=chunked)
+        writer.start()
+        schema = writer.register_schema("x", "jsonschema", b'{"type": "object"}')
+        channels = [writer.register_channel(t, "json", schema) for t in ("/u", "/y\udcff")]
+        for k in range(10):
+            for channel in channels:
+                data = json.dumps({"x": float(k)}).encode()
+                writer.add_message(channel, 10**9 + k * 10**8, data, 10**9 + k * 10**8)
+        writer.finish()
+    message = refused(log, capsys, "names.mcap", "(text in it is not UTF-8: byte 0xff)")
+    assert "codec" not in message
+
+
 def test_unindexed_ros1_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     log = simulated(tmp_path / "open.bag")
     at = find(log, b"index_pos=") + len(b"index_pos=")
