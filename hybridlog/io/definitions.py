@@ -46,7 +46,7 @@ def library_reason(err: BaseException) -> str:
     if isinstance(err, UnicodeDecodeError):
         byte = err.object[err.start : err.start + 1].hex()
         return f"text in it is not UTF-8: byte 0x{byte}"
-    return library_reason(err)
+    return excerpt(first_line(err))
 
 
 def normal_type(name: str) -> str:
