@@ -532,6 +532,29 @@ def test_a_new_estimator_is_one_module_and_one_registry_entry(tmp_path, monkeypa
     assert "lag=1  int, in [1, 10]  predict y(k) as y(k - lag)" in entry.help_text()
 
 
+def run_unechoed(model, signals, options):
+    """:func:`run_persist` whose result leaves the options out and names no estimator."""
+    return dataclasses.replace(run_persist(model, signals, options), estimator="", options={})
+
+
+def test_the_registry_writes_the_options_an_estimator_left_out_of_its_result(tmp_path, monkeypatch):
+    # The recipe asks of an estimator's module only run(model, signals, options): one that
+    # did not echo its options wrote "options": {} into report.json, its --set lost.
+    entry = Estimator(
+        name="unechoed",
+        summary="naive persistence, options not echoed",
+        source="none",
+        module=__name__,
+        options="PersistOptions",
+        run="run_unechoed",
+        capabilities=Capabilities(unpredicted_outputs=True),
+    )
+    monkeypatch.setitem(ESTIMATORS, "unechoed", entry)
+    analyze(SAMPLE, "three_tank_hstf", estimator="unechoed", sets=["lag=2"], out_dir=tmp_path / "r")
+    report = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert report["estimator"] == "unechoed" and report["options"] == {"lag": 2}
+
+
 @pytest.mark.parametrize(
     ("text", "reason"),
     [
