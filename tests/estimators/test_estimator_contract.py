@@ -481,6 +481,25 @@ def test_a_result_of_the_wrong_dtype_or_mode_names_estimator_and_field():
         EstimationResult(**{**fields, "output_predictions": [[0.0]] * 5})
 
 
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("notes", "one remark"),  # ("one remark") without its comma
+        ("notes", ("a", 1)),
+        ("mode_ids", "12"),
+        ("state_names", "abc"),
+        ("output_names", ("y1", None, "y3")),
+        ("options", None),
+    ],
+)
+def test_a_result_with_names_notes_or_options_of_the_wrong_type_is_refused(field, value):
+    # notes="one remark" passed as the characters of the text: report.json's notes were
+    # ["o", "n", "e", ...]; mode_ids="12" passed for two modes.
+    fields = result_fields()
+    with pytest.raises(ResultShapeError, match=rf"^toy: result field '{field}' must be a "):
+        EstimationResult(**{**fields, field: value})
+
+
 # The recipe of docs/architecture.md, followed by a test: this module holds an estimator
 # (options + run), one registry entry names it, and `analyze` writes its report unchanged.
 
