@@ -22,7 +22,7 @@ from rosbags.rosbag2 import Writer as Rosbag2Writer
 from rosbags.typesys import Stores, get_typestore
 
 from hybridlog.cli import cli
-from hybridlog.errors import LogError
+from hybridlog.errors import LogError, OptionError
 from hybridlog.io import (
     FORMATS,
     LogSource,
@@ -298,3 +298,21 @@ def test_a_format_is_one_reader_class_and_one_row(
     assert inspect_log(log)["messages"] == len(lines)
     assert format_inspection(inspect_log(log)).startswith(f"{log} (jsonl, ")
     assert "JSON lines (.jsonl)" in format_list(titles=True)
+
+
+def test_time_header_is_refused_by_the_table_for_a_format_without_stamps(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # --recover was refused from the table (LogFormat.recovers), but --time header was left to
+    # each reader: a new row's reader that did not refuse it read its own times without a word
+    monkeypatch.setattr(formats, "FORMATS", (JSON_LINES, *FORMATS))
+    log = tmp_path / "run.jsonl"
+    log.write_text(json.dumps({"topic": "/u", "log_ns": 0, "message": {"data": 1.0}}) + "\n")
+    with pytest.raises(OptionError) as refused:
+        open_log(log, ReadOptions(time="header"))
+    assert str(refused.value) == (
+        f"--time header: {log} is a JSON lines log; its time column is the only time it has "
+        "(use --time log)"
+    )
+    for row in FORMATS:  # the rows of today: bags and MCAP files read stamps, tables do not
+        assert row.stamped is (row.name not in ("csv", "parquet")), row.name
