@@ -69,6 +69,7 @@ import dataclasses
 import difflib
 import math
 import os
+import re
 import tomllib
 import types
 import typing
@@ -457,7 +458,10 @@ def _read(raw: Any, field: dataclasses.Field[Any], kind: _Kind, *, text: bool, b
     items = field.metadata.get("items")
     if items is not None and not text and not isinstance(raw, str):
         raw = _listed(raw, items)
-    value = _check(_convert(raw, kind, text=text), kind, field)
+    value = _convert(raw, kind, text=text)
+    if items is int and isinstance(value, str):
+        value = _whole_items(value)
+    value = _check(value, kind, field)
     if field.metadata.get("path") and value:
         if base and not os.path.isabs(value):
             value = os.path.join(base, value)
@@ -508,6 +512,32 @@ def _listed(array: object, items: type[Any]) -> str:
             )
         texts.append(repr(value) if isinstance(value, float) else str(value))
     return ",".join(texts)
+
+
+def _whole_items(text: str) -> str:
+    """The text of a list of whole numbers with each integral number written as one.
+
+    By the rule of an ``int`` (module docstring), ``10.0`` and ``1e3`` are whole numbers, as
+    a TOML array's items are read (:func:`_listed`: ``output_lags = [0, 1.0]`` is ``"0,1"``);
+    the text ``--set output_lags=0,1.0`` (or ``"0,1.0"`` in a model file) was refused
+    ("'1.0' is not a whole number").  Any other item stays as written, for the option's
+    ``check`` to refuse in its own words.
+    """
+
+    def whole(match: re.Match[str]) -> str:
+        item = match.group(0)
+        try:
+            parse_int(item)
+            return item
+        except ValueError:
+            pass
+        try:
+            number = parse_float(item)
+        except ValueError:
+            return item
+        return str(int(number)) if number.is_integer() else item
+
+    return re.sub(r"[^,;]+", whole, text)
 
 
 def _refuse_conflicts(options: object, estimator: str, sources: Mapping[str, OptionSource]) -> None:

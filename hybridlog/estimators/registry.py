@@ -531,8 +531,8 @@ class Prepared:
         self.check_signals(model, signals)
         with self._rules_left_out(model):
             with self._numerical_trouble(model), self._option_keys():
-                result: EstimationResult = self.estimator.run_function(
-                    model, signals, self.options, **inputs
+                result: EstimationResult = self._stamped(
+                    self.estimator.run_function(model, signals, self.options, **inputs)
                 )
             self._vouch(model, signals, result)
         if self.moves_modes(model):
@@ -540,6 +540,20 @@ class Prepared:
             if model.outputs_differ_by_mode:
                 result = replace(result, notes=(*result.notes, STEP_INTO_OUTPUTS_WARNING))
         return self._with_component_modes(model, result)
+
+    def _stamped(self, result: EstimationResult) -> EstimationResult:
+        """``result`` named after this entry and holding its options, as the report writes them.
+
+        The registry knows both: an estimator that left ``options`` empty (or named itself
+        otherwise) wrote ``"options": {}`` into report.json, its ``--set`` values lost,
+        though the recipe asks of its module only ``run(model, signals, options)``.  The
+        options the estimator wrote itself stay, after the declared ones it left out
+        (``chiu``'s fitted centres and gains).
+        """
+        declared = options_dict(self.options)
+        if result.estimator == self.name and declared.keys() <= result.options.keys():
+            return result
+        return replace(result, estimator=self.name, options={**declared, **result.options})
 
     def _with_component_modes(
         self, model: HybridModel, result: EstimationResult
@@ -731,6 +745,7 @@ class Prepared:
                     chunk = next(chunks, None)
                 if chunk is None:
                     return
+                chunk = self._stamped(chunk)
                 self._vouch(model, signals, chunk, first=first, before=before)
             if chunk.n_samples:
                 first, before = first + chunk.n_samples, chunk.state_means[-1].copy()

@@ -228,6 +228,7 @@ class EstimationResult:
     states_not_estimated: BoolArray | None = None
 
     def __post_init__(self) -> None:
+        self._check_names()
         if not isinstance(self.time, np.ndarray) or self.time.ndim != 1:
             got = getattr(self.time, "shape", type(self.time).__name__)
             raise ResultShapeError(
@@ -290,6 +291,27 @@ class EstimationResult:
                     + (f" indices into its {len(column.labels)} labels" if labelled else "")
                 )
             seen.add(column.name)
+
+    def _check_names(self) -> None:
+        """Refuse names, notes and options of the wrong type (:class:`ResultShapeError`).
+
+        A string where a tuple of strings belongs passed, as a sequence of its characters:
+        ``notes=("one remark")`` (no comma) wrote ``"notes": ["o", "n", "e", ...]`` into
+        report.json, and ``mode_ids="12"`` fitted two modes.
+        """
+        for name in ("mode_ids", "state_names", "output_names", "notes"):
+            value = getattr(self, name)
+            if isinstance(value, str) or not all(isinstance(item, str) for item in value):
+                raise ResultShapeError(
+                    f"{self.estimator}: result field '{name}' must be a tuple of strings, "
+                    f"not {type(value).__name__}"
+                    + (f" {value[:40]!r}" if isinstance(value, str) else "")
+                )
+        if not isinstance(self.options, dict):
+            raise ResultShapeError(
+                f"{self.estimator}: result field 'options' must be a dict, not "
+                f"{type(self.options).__name__}"
+            )
 
     @property
     def n_samples(self) -> int:

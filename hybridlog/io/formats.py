@@ -88,8 +88,8 @@ class LogFormat:
         refused as it is opened (:meth:`open`): the option was silently ignored.
     stamped:
         Whether its messages may carry the ``header.stamp`` that ``--time header`` reads: bags
-        and MCAP files.  A table's time column is the only time it has (its reader refuses
-        ``--time header``).
+        and MCAP files.  A table's time column is the only time it has: ``--time header`` is
+        refused as a log of another format is opened (:meth:`open`).
     """
 
     name: str
@@ -110,10 +110,17 @@ class LogFormat:
         Raises
         ------
         OptionError
-            For ``--recover`` on a format that does not read it (:attr:`recovers`).
+            For ``--recover`` on a format that does not read it (:attr:`recovers`), and for
+            ``--time header`` on one whose logs carry no stamps (:attr:`stamped`): each
+            reader refused it itself, or, a new one, read its own times without a word.
         """
         if options.recover and not self.recovers:
             raise OptionError(self.recover_refusal(path))
+        if options.time != "log" and not self.stamped:
+            raise OptionError(
+                f"--time {options.time}: {os.fspath(path)} is {self.what}; its time column is "
+                "the only time it has (use --time log)"
+            )
         module, _, name = self.reader.partition(":")
         reader = getattr(importlib.import_module(module), name)
         opener = cast("Callable[[Path, ReadOptions, LogFormat], LogSource]", reader)

@@ -41,9 +41,7 @@ from dataclasses import dataclass
 from typing import NoReturn
 
 import numpy as np
-import scipy.sparse
 import sympy
-from scipy.sparse.csgraph import connected_components, maximum_bipartite_matching
 
 from hybridlog.errors import ModelError
 from hybridlog.model.components import Component, Equation, joint_label
@@ -117,6 +115,9 @@ def causal_graph(
         for name in candidates:
             rows.append(r)
             cols.append(column[name])
+    import scipy.sparse  # a components model's alone: not for every model loaded
+    from scipy.sparse.csgraph import maximum_bipartite_matching
+
     biadjacency = scipy.sparse.csr_matrix(
         (np.ones(len(rows)), (rows, cols)), shape=(len(equations), len(vertices))
     )
@@ -192,6 +193,9 @@ def _groups(components: Sequence[Component], names: ComponentNames) -> list[list
     ]
     size = len(components) + len(matchable)
     rows, cols = zip(*links, strict=True) if links else ((), ())
+    import scipy.sparse
+    from scipy.sparse.csgraph import connected_components
+
     graph = scipy.sparse.csr_array((np.ones(len(rows)), (rows, cols)), shape=(size, size))
     _, labels = connected_components(graph, directed=False)
     groups: dict[int, list[int]] = {}
@@ -341,6 +345,9 @@ def _first_incomplete(
             lengths.append(len(names))
     indptr = np.zeros(len(lengths) + 1, dtype=np.int64)
     np.cumsum(lengths, out=indptr[1:])
+    import scipy.sparse
+    from scipy.sparse.csgraph import maximum_bipartite_matching
+
     graph = scipy.sparse.csr_array(
         (np.ones(len(indices)), np.asarray(indices, dtype=np.int64), indptr),
         shape=(len(lengths), len(joint) * len(matchable)),

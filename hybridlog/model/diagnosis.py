@@ -423,9 +423,11 @@ def _slopes(
     evaluate ``exp(exp(4.9e8))`` exactly, for minutes; in float64 it is inf, a slope that says
     nothing.
     """
+    from hybridlog.model.codegen import lambdify  # the printer: not for a warm process
+
     (row,) = jacobian([expression], x)
     names = list(point)
-    slopes = sympy.lambdify(names, row, modules="numpy")
+    slopes = lambdify(names, row, "numpy")
     with np.errstate(all="ignore"):
         try:
             found = np.asarray(slopes(*(float(point[n]) for n in names)), dtype=np.complex128)

@@ -125,3 +125,14 @@ def test_estimator_options_are_read_without_the_compiler():
     assert done.returncode == 0, done.stderr
     loaded = set(json.loads(done.stdout.splitlines()[-1]))
     assert not loaded & {"numba", "llvmlite", "scipy", "cvxpy", "sympy", "matplotlib"}, loaded
+
+
+def test_checking_a_model_file_imports_what_its_kind_needs(tmp_path):
+    # `models FILE` of a model without [components] imported scipy.sparse (0.1-0.2 s, the
+    # loader's components graph checks); sympy it needs, to parse the expressions.
+    from hybridlog.model.builtins import builtin_text
+
+    path = tmp_path / "tank.toml"
+    path.write_text(builtin_text("three_tank_hstf"), encoding="utf-8")
+    found = heavy_imports(["models", str(path)])
+    assert found[f"models {path}"] == ["numpy", "sympy"], found

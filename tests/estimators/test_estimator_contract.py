@@ -481,6 +481,25 @@ def test_a_result_of_the_wrong_dtype_or_mode_names_estimator_and_field():
         EstimationResult(**{**fields, "output_predictions": [[0.0]] * 5})
 
 
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("notes", "one remark"),  # ("one remark") without its comma
+        ("notes", ("a", 1)),
+        ("mode_ids", "12"),
+        ("state_names", "abc"),
+        ("output_names", ("y1", None, "y3")),
+        ("options", None),
+    ],
+)
+def test_a_result_with_names_notes_or_options_of_the_wrong_type_is_refused(field, value):
+    # notes="one remark" passed as the characters of the text: report.json's notes were
+    # ["o", "n", "e", ...]; mode_ids="12" passed for two modes.
+    fields = result_fields()
+    with pytest.raises(ResultShapeError, match=rf"^toy: result field '{field}' must be a "):
+        EstimationResult(**{**fields, field: value})
+
+
 # The recipe of docs/architecture.md, followed by a test: this module holds an estimator
 # (options + run), one registry entry names it, and `analyze` writes its report unchanged.
 
@@ -530,6 +549,29 @@ def test_a_new_estimator_is_one_module_and_one_registry_entry(tmp_path, monkeypa
     assert report["estimator"] == "persist" and report["options"] == {"lag": 2}
     assert outcome.report.modes.accuracy is not None
     assert "lag=1  int, in [1, 10]  predict y(k) as y(k - lag)" in entry.help_text()
+
+
+def run_unechoed(model, signals, options):
+    """:func:`run_persist` whose result leaves the options out and names no estimator."""
+    return dataclasses.replace(run_persist(model, signals, options), estimator="", options={})
+
+
+def test_the_registry_writes_the_options_an_estimator_left_out_of_its_result(tmp_path, monkeypatch):
+    # The recipe asks of an estimator's module only run(model, signals, options): one that
+    # did not echo its options wrote "options": {} into report.json, its --set lost.
+    entry = Estimator(
+        name="unechoed",
+        summary="naive persistence, options not echoed",
+        source="none",
+        module=__name__,
+        options="PersistOptions",
+        run="run_unechoed",
+        capabilities=Capabilities(unpredicted_outputs=True),
+    )
+    monkeypatch.setitem(ESTIMATORS, "unechoed", entry)
+    analyze(SAMPLE, "three_tank_hstf", estimator="unechoed", sets=["lag=2"], out_dir=tmp_path / "r")
+    report = json.loads((tmp_path / "r" / "report.json").read_text())
+    assert report["estimator"] == "unechoed" and report["options"] == {"lag": 2}
 
 
 @pytest.mark.parametrize(

@@ -21,7 +21,8 @@ from hybridlog.estimators.options import (
     options_dict,
     parse_options,
 )
-from hybridlog.estimators.registry import reference_markdown
+from hybridlog.estimators.registry import prepare, reference_markdown
+from hybridlog.model.loader import load_model
 
 
 @dataclass(frozen=True)
@@ -261,6 +262,23 @@ def test_a_list_option_takes_a_toml_array_from_a_model_file():
     # --set keeps its text form: the text is the list
     assert parse_options(Listed, {"rates": "-1,-2"}, estimator="toy").rates == "-1,-2"
     assert describe_options(Listed)[0].type == "list of float"
+
+
+def test_a_list_of_whole_numbers_reads_integral_items_alike_from_text_and_array():
+    # lags = [0, 2.0] was "0,2", but --set lags=0,2.0 (and the model file's text "0,2.0")
+    # reached the option's check as written and was refused ("'2.0' is not a whole number")
+    file = {"lags": OptionSource.model_file("m.toml", "toy", "lags")}
+    assert parse_options(Listed, {"lags": [0, 2.0]}, estimator="toy", sources=file).lags == "0,2"
+    assert parse_options(Listed, {"lags": "0,2.0"}, estimator="toy", sources=file).lags == "0,2"
+    for text in ("0,2.0", "0,2e0", "0.0,2", "0,2"):
+        assert parse_options(Listed, {"lags": text}, estimator="toy").lags == "0,2"
+    cart = load_model("double_cart_case1")
+    chiu = prepare(cart, "chiu", {"output_lags": "0,1.0", "input_lags": "1e0"}).options
+    assert (chiu.output_lags, chiu.input_lags) == ("0,1", "1")
+    # any other item is left as written, for the option's check to refuse in its words
+    assert parse_options(Listed, {"lags": "0,1.5"}, estimator="toy").lags == "0,1.5"
+    with pytest.raises(OptionError, match=r"'1\.5' is not a whole number"):
+        prepare(cart, "chiu", {"output_lags": "0,1.5"})
 
 
 def test_the_list_options_of_the_estimators_are_marked():

@@ -22,7 +22,7 @@ from rosbags.rosbag2 import Writer as Rosbag2Writer
 from rosbags.typesys import Stores, get_typestore
 
 from hybridlog.cli import cli
-from hybridlog.errors import LogError
+from hybridlog.errors import LogError, OptionError
 from hybridlog.io import (
     FORMATS,
     LogSource,
@@ -117,7 +117,8 @@ def test_each_row_reads_a_file_written_by_another_tool(key: str, tmp_path: Path)
         info = source.info
         assert info.path == str(log)
         assert info.format.split(" ")[0] == name
-        assert info.message_paths is (name not in ("csv", "parquet"))
+        # a log of messages names message paths, a table its columns (a new row is either)
+        assert info.message_paths is isinstance(source, MessageSource)
         assert info.field_word == ("field" if info.message_paths else "column")
         field = "/pump/cmd.data" if info.message_paths else "u"
         assert field in source.fields()
@@ -126,6 +127,9 @@ def test_each_row_reads_a_file_written_by_another_tool(key: str, tmp_path: Path)
         assert reading.numeric[field].values.size == (19 if info.message_paths else 91)
         assert source.describe()["format"] == info.format
     assert inspect_log(log)["format"] == info.format
+    # inspect prints the description: a reader's describe() without the keys of its family
+    # (a table's path, rows, columns ...) passed here and failed `hybridlog inspect` itself
+    assert format_inspection(inspect_log(log)).startswith(f"{log} ({info.format}")
 
 
 def test_a_suffix_in_capitals_is_read_or_refused_by_its_case(tmp_path: Path) -> None:
@@ -167,8 +171,7 @@ def test_suffix_cross_check(tmp_path: Path) -> None:
     with pytest.raises(LogError) as error:
         open_log(other)
     assert str(error.value) == (
-        f"{other}: unsupported log format (suffix '.txt'); supported: "
-        ".csv, .parquet, .mcap, .bag, .db3 and ROS 2 bag directories"
+        f"{other}: unsupported log format (suffix '.txt'); supported: {format_list()}"
     )
 
 
@@ -212,7 +215,12 @@ def test_parquet_content_is_read_whatever_its_name(tmp_path: Path) -> None:
 
 
 def test_format_lists_in_errors_and_help_come_from_the_table() -> None:
-    assert format_list() == ".csv, .parquet, .mcap, .bag, .db3 and ROS 2 bag directories"
+    # every file row's suffixes in the table's order, then the directories: the list today is
+    # ".csv, .parquet, .mcap, .bag, .db3 and ROS 2 bag directories" (a new row joins it)
+    suffixes = [s for f in FORMATS if not f.directory for s in f.suffixes]
+    folders = [f.title for f in FORMATS if f.directory]
+    assert format_list() == f"{', '.join(suffixes)} and {', '.join(folders)}"
+    assert {".csv", ".parquet", ".mcap", ".bag", ".db3"} <= set(suffixes)
     listed = format_list(titles=True)
     assert all(f.title in listed for f in FORMATS)
     result = CliRunner().invoke(cli, ["inspect", "--help"], terminal_width=400)
@@ -288,4 +296,23 @@ def test_a_format_is_one_reader_class_and_one_row(
     np.testing.assert_array_equal(read.inputs, expected.inputs)
     np.testing.assert_array_equal(read.outputs, expected.outputs)
     assert inspect_log(log)["messages"] == len(lines)
+    assert format_inspection(inspect_log(log)).startswith(f"{log} (jsonl, ")
     assert "JSON lines (.jsonl)" in format_list(titles=True)
+
+
+def test_time_header_is_refused_by_the_table_for_a_format_without_stamps(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # --recover was refused from the table (LogFormat.recovers), but --time header was left to
+    # each reader: a new row's reader that did not refuse it read its own times without a word
+    monkeypatch.setattr(formats, "FORMATS", (JSON_LINES, *FORMATS))
+    log = tmp_path / "run.jsonl"
+    log.write_text(json.dumps({"topic": "/u", "log_ns": 0, "message": {"data": 1.0}}) + "\n")
+    with pytest.raises(OptionError) as refused:
+        open_log(log, ReadOptions(time="header"))
+    assert str(refused.value) == (
+        f"--time header: {log} is a JSON lines log; its time column is the only time it has "
+        "(use --time log)"
+    )
+    for row in FORMATS:  # the rows of today: bags and MCAP files read stamps, tables do not
+        assert row.stamped is (row.name not in ("csv", "parquet")), row.name

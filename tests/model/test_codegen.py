@@ -345,3 +345,22 @@ def test_a_derivative_at_a_tie_of_max_or_min_is_a_subgradient():
     result = run_imm(model, log.signals(model), ImmOptions(), jit=False)
     truth = log.states[:, 0]
     assert abs(result.state_means[-1, 0] - truth[-1]) < 0.1, (result.state_means[-1, 0], truth[-1])
+
+
+def test_only_codegen_turns_expressions_into_code():
+    # Issue 8: one place turns sympy expressions into code.  model/diagnosis.py called
+    # sympy.lambdify with sympy's own printer (a Float printed to 15 digits, not the double it
+    # holds), beside codegen.lambdify's exact one.
+    import re
+
+    from tests.support.paths import ROOT
+
+    pattern = re.compile(r"sympy\.lambdify|sympy\.printing|sympy\.utilities\.(lambdify|autowrap)")
+    found = [
+        f"{path.relative_to(ROOT)}:{number}"
+        for path in sorted((ROOT / "hybridlog").rglob("*.py"))
+        if path.name != "codegen.py"
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+        if pattern.search(line)
+    ]
+    assert found == []
