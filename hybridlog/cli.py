@@ -651,8 +651,8 @@ def batch_command(
     if waited and not quiet:
         seconds = sum(log.memory_wait_s for log in waited)
         click.echo(
-            f"hybridlog: note: {len(waited)} of {len(outcome.logs)} logs waited {seconds:.0f} s "
-            f"in all for memory held by the other workers' logs: "
+            f"hybridlog: note: {len(waited):,} of {len(outcome.logs):,} logs waited "
+            f"{seconds:.0f} s in all for memory held by the other workers' logs: "
             f"{'the Dask workers' if scheduler is not None else f'--jobs {jobs}'} ran fewer "
             "logs at once where all would not fit",
             err=True,
@@ -663,7 +663,7 @@ def batch_command(
         have = have_warnings(len(warned), analysed, "analysed log")
         click.echo(one_line(f"hybridlog: {have}; see {out_dir / 'summary.md'}"), err=True)
     if outcome.failed:
-        failed = f"{outcome.failed} of {len(outcome.logs)} logs failed"
+        failed = f"{outcome.failed:,} of {len(outcome.logs):,} logs failed"
         click.echo(one_line(f"hybridlog: {failed} (see {out_dir / 'summary.md'})"), err=True)
     gate_exit(outcome.gate_failures)
     if outcome.failed:

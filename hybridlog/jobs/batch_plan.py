@@ -65,6 +65,9 @@ def _settings(
     """The settings that change a batch's results, as canonical JSON text."""
     files = {name: content_hash(path, what=what) for name, what, path in input_files(prepared)}
     reading: dict[str, Any] = dataclasses.asdict(read)
+    # a symbol maps once, and the maps are read as one dict (``io.mapping.parse_maps``): the
+    # same maps in another order, or with spaces around a symbol, redid every log
+    reading["maps"] = sorted(_canonical_map(item) for item in read.maps)
     reading["msg_dirs"] = [
         [folder, content_hash(folder, what="--msg-dir folder")] for folder in read.msg_dirs
     ]
@@ -77,6 +80,12 @@ def _settings(
         "table_format": table_format,
     }
     return json.dumps(settings, sort_keys=True, default=str)
+
+
+def _canonical_map(item: str) -> str:
+    """A ``--map SYMBOL=PATH`` value as it is read: the symbol stripped, the path as written."""
+    symbol, sep, path = item.partition("=")
+    return f"{symbol.strip()}{sep}{path}"
 
 
 def plan(

@@ -122,7 +122,7 @@ def _partial_section(rows: Sequence[BatchRow]) -> list[str]:
     analysed = sum(row.report is not None for row in rows)
     lines = [
         "",
-        f"## Mode accuracy over part of the log ({len(partial)} of {analysed})",
+        f"## Mode accuracy over part of the log ({len(partial):,} of {analysed:,})",
         "",
         "These logs' true mode starts after their first sample or has no sample within "
         "dt/2 of some samples (a gap): `mode_accuracy` (and the gates on it, and with an "
@@ -135,7 +135,7 @@ def _partial_section(rows: Sequence[BatchRow]) -> list[str]:
         for log, part in partial[:MAX_NAMED]
     ]
     if len(partial) > MAX_NAMED:
-        lines.append(f"- and {len(partial) - MAX_NAMED} more (summary.csv's `mode_samples`)")
+        lines.append(f"- and {len(partial) - MAX_NAMED:,} more (summary.csv's `mode_samples`)")
     return lines
 
 
@@ -198,7 +198,7 @@ def batch_markdown(
     missed = [row for row in rows if row.status != "failed" and row.missed]
     passed = [row for row in rows if row.passed]
     counts = ", ".join(
-        f"{n} {what}"
+        f"{n:,} {what}"
         for n, what in (
             (sum(r.status == "done" for r in rows), "analysed"),
             (sum(r.status == "skipped" for r in rows), "skipped (unchanged)"),
@@ -211,7 +211,9 @@ def batch_markdown(
     # said "no gate given"): without a gate result, a log is analysed or not
     gated_rows = any(row.gates for row in rows)
     word = "passed" if gated_rows else "analysed"
-    verdict = f"all {word}" if len(passed) == len(rows) else f"{len(rows) - len(passed)} not {word}"
+    verdict = (
+        f"all {word}" if len(passed) == len(rows) else f"{len(rows) - len(passed):,} not {word}"
+    )
     filtered = ("filtered_mode_accuracy",) if offline is not None else ()
     extra = gated_columns(gated, (*BATCH_METRICS, *filtered))
     header = ("log", "status", "gates", *BATCH_METRICS, *filtered, *extra, "report")
@@ -257,9 +259,9 @@ def batch_markdown(
     )
     parts: list[str | Listing] = [*lines, "", head, rule, shown]
     if failed:
-        parts += ["", f"## Failed logs ({len(failed)} of {len(rows)})", "", listed_failures]
+        parts += ["", f"## Failed logs ({len(failed):,} of {len(rows):,})", "", listed_failures]
     if missed:
-        parts += ["", f"## Missed gates ({len(missed)} of {len(rows)})", "", listed_misses]
+        parts += ["", f"## Missed gates ({len(missed):,} of {len(rows):,})", "", listed_misses]
     lines = []
     shared = common_notes(row.report for row in rows if row.report is not None)
     lines += warnings_section(
@@ -296,7 +298,7 @@ def _made_elsewhere_section(rows: Sequence[BatchRow]) -> list[str]:
         return []
     return [
         "",
-        f"## Reports made from the log at another path ({len(moved)})",
+        f"## Reports made from the log at another path ({len(moved):,})",
         "",
         "Unchanged since an earlier run analysed them at another path, so their reports were "
         "reused: report.md and report.json name that path.",
@@ -324,7 +326,7 @@ def _others_section(others: Sequence[tuple[str, str]]) -> list[str]:
     """summary.md's "Other report folders": ``(name, kind)`` each, grouped by kind."""
     if not others:
         return []
-    lines = ["", f"## Other report folders ({len(others)})"]
+    lines = ["", f"## Other report folders ({len(others):,})"]
     for kind, says in OTHER_KINDS.items():
         names = [name for name, of in others if of == kind]
         if names:

@@ -200,10 +200,10 @@ def _counts(rows: Sequence[BatchRow]) -> str:
     which read as gates checked and met.  When no log was analysed, nothing tells.
     """
     failed = sum(1 for row in rows if row.status == "failed")
-    parts = [plural(len(rows), "log"), f"{failed} not analysed (crosses)"]
+    parts = [plural(len(rows), "log"), f"{failed:,} not analysed (crosses)"]
     if any(row.gates for row in rows):
         missed = sum(1 for row in rows if row.status != "failed" and row.missed)
-        parts.append(f"{missed} missed a gate (red)")
+        parts.append(f"{missed:,} missed a gate (red)")
     elif failed < len(rows):
         parts.append("no gate given")
     return ", ".join(parts)

@@ -21,6 +21,7 @@ import pytest
 import hybridlog.jit as jit
 import hybridlog.jobs.batch_job as batch_job
 from hybridlog.errors import OutputError
+from hybridlog.io import ReadOptions
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
 from hybridlog.jobs.batch import run_batch
@@ -318,3 +319,29 @@ def test_junit_replaces_its_own_file_but_not_a_foreign_one(tmp_path: Path) -> No
     with pytest.raises(OutputError, match=r"^--junit .* is the log"):  # not even with force
         run_batch(logs, TANK, out_dir=tmp_path / "out3", estimator="imm", junit=logs[0], force=True)
     assert logs[0].read_bytes() == before
+
+
+def test_the_same_maps_in_another_order_or_spacing_resume(tmp_path: Path) -> None:
+    # a symbol maps once and the maps are read as one dict: the nightly job that listed its
+    # --map options in another order (or wrote `y1 = A1`) redid every log of the batch
+    folder = tmp_path / "logs"
+    folder.mkdir()
+    renamed = {"y1": "A1", "y2": "A2"}
+    logs = [
+        write_table(
+            folder / f"s{k}.csv",
+            {renamed.get(n, n): c for n, c in tank_run(steps=30, seed=k).columns.items()},
+        )
+        for k in (1, 2)
+    ]
+    out = tmp_path / "out"
+
+    def again(*maps: str) -> set[str]:
+        outcome = run_batch(logs, TANK, out_dir=out, estimator="imm", read=ReadOptions(maps=maps))
+        return set(statuses(outcome).values())
+
+    assert again("y1=A1", "y2=A2") == {"done"}
+    assert again("y2=A2", "y1=A1") == {"skipped"}
+    assert again(" y2 =A2", "y1\t=A1") == {"skipped"}
+    # another column is another reading: redone
+    assert again("y1=A1", "y2=A2", "y3=y3") == {"done"}

@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from hybridlog.report.document import read_report
 from hybridlog.report.summary import batch_markdown
 from hybridlog.report.summary_budget import SUMMARY_BYTES, Listing, within_budget
+from hybridlog.report.summary_plot import summary_figure
 from hybridlog.report.summary_rows import BatchRow
 from tests.report.test_summary_plot import REPORT
 
@@ -145,3 +146,15 @@ def test_no_batch_row_is_lost_from_the_table_that_the_terminal_prints() -> None:
     rows = [replace(row, log=f"é{row.log}") for row in _rows(12_000, 0, 0)]
     table, text = batch_markdown("m · imm", rows, [])
     assert len(text.encode()) <= SUMMARY_BYTES < len(table.encode())
+
+
+def test_a_large_batch_counts_its_logs_alike_in_the_headline_and_sections() -> None:
+    # "**2,000 logs: all analysed** (2000 analysed)": the total grouped its digits, the counts
+    # beside it did not, nor the sections' headings, nor summary.png's title
+    rows = _rows(1_500, 1_200, 1_100)
+    _, text = batch_markdown("m · imm", rows, [GATE])
+    assert "**3,800 logs: 2,300 not passed** (2,700 analysed, 1,100 failed, 1,200 missed" in text
+    assert "## Failed logs (1,100 of 3,800)" in text
+    assert "## Missed gates (1,200 of 3,800)" in text
+    title = summary_figure("m · imm", rows).get_suptitle().split("\n")[1]
+    assert title == "3,800 logs, 1,100 not analysed (crosses), 1,200 missed a gate (red)"
