@@ -39,6 +39,10 @@ class ModelError(HybridlogError):
     """A model file (TOML) is malformed, names an unknown symbol or has a wrong shape."""
 
 
+class UnusedParameterError(ModelError):
+    """``--set`` of a model parameter no expression reads: the run would be the run without it."""
+
+
 class DivergenceError(ModelError):
     """An estimator's run broke on a log every check accepted: the result cannot be vouched for.
 

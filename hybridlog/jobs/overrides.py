@@ -15,7 +15,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
 
-from hybridlog.errors import OptionError, excerpt, set_text
+from hybridlog.errors import OptionError, UnusedParameterError, excerpt, set_text
 from hybridlog.estimators import (
     ESTIMATORS,
     Estimator,
@@ -69,7 +69,10 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
     for name, value in set_texts(values).items():
         (texts if name in model.parameters else options)[name] = value.strip()
     if texts:
-        model = load_model_set(model_ref, texts)
+        try:
+            model = load_model_set(model_ref, texts)
+        except UnusedParameterError as err:
+            raise _also_an_option(err) from None
         from hybridlog.model.reads import refuse_unread_by_analysis
 
         refuse_unread_by_analysis(model, texts)
@@ -77,6 +80,29 @@ def parse_sets(values: Sequence[str], model_ref: str | Path) -> tuple[HybridMode
     return model, Overrides(
         MappingProxyType(parameters), MappingProxyType(options), MappingProxyType(texts)
     )
+
+
+def _also_an_option(err: UnusedParameterError) -> UnusedParameterError:
+    """``err`` saying so where the unused parameter's name is also an estimator option.
+
+    ``--set stay_probability=0.9`` on a model with a leftover parameter of that name was
+    refused as changing nothing, though the user meant ``imm``'s option, which it would.
+    """
+    for name in sorted(err.named):
+        owners = [e.name for e in ESTIMATORS.values() if name in _option_names(e)]
+        if owners:
+            return UnusedParameterError(
+                f"{err}; {name!r} is also an option of {', '.join(owners)}, which --set "
+                "cannot reach while the model has a parameter of that name: remove or rename "
+                f"the parameter, or set the option under [estimators.{owners[0]}]",
+                named=err.named,
+            )
+    return err
+
+
+def _option_names(estimator: Estimator) -> set[str]:
+    """The names of ``estimator``'s options."""
+    return {option.name for option in estimator.describe_options()}
 
 
 def smoothing_overrides(

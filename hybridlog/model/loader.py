@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import sympy
 
-from hybridlog.errors import ModelError, excerpt
+from hybridlog.errors import ModelError, UnusedParameterError, excerpt, prefixed
 from hybridlog.model.cache import load_model
 from hybridlog.model.component_loader import load_components
 from hybridlog.model.component_structure import ComponentNames, check_joint_modes
@@ -126,7 +126,7 @@ def parse_model(
     try:
         return _Builder(data, text, parameters or {}, origin).build()
     except ModelError as err:
-        raise ModelError(f"{origin}: {err}", named=err.named) from err
+        raise prefixed(err, f"{origin}: ") from err
     except RecursionError as err:  # sympy on a pathological expression the grammar let by
         raise ModelError(f"{origin}: an expression is nested too deeply") from err
 
@@ -644,7 +644,7 @@ def _refuse_unused_overrides(data: Mapping[str, Any], overrides: Mapping[str, fl
         named.update(identifiers(value))
     for name in overrides:
         if name not in named:
-            raise ModelError(
+            raise UnusedParameterError(
                 f"{key_path('parameters', name)}: used by no expression of the model, so "
                 f"--set {name}=... would change nothing",
                 named=(name,),

@@ -63,6 +63,27 @@ def test_a_set_name_both_a_parameter_and_an_option_is_refused(tmp_path):
     assert (tmp_path / "imm" / "report.json").is_file()
 
 
+def test_a_set_name_of_an_unused_parameter_and_an_option_says_both(tmp_path):
+    """A leftover parameter named like an option: refused as "would change nothing" alone.
+
+    The user meant the option, which would change the run: the refusal says what stands in
+    its way.
+    """
+    model = tmp_path / "gain.toml"
+    model.write_text(MODEL.format(default="imm").replace("rho = 0.9", "rho = 0.9\ntheta = 1"))
+    log = tmp_path / "log.csv"
+    log.write_text("t,u,y\n" + "".join(f"{k / 10},{k % 3},{k % 5}\n" for k in range(40)))
+    with pytest.raises(
+        ModelError,
+        match=r"parameters\.theta: used by no expression of the model, so --set theta=\.\.\. "
+        r"would change nothing; 'theta' is also an option of hstf, which --set cannot reach "
+        r"while the model has a parameter of that name: remove or rename the parameter, or "
+        r"set the option under \[estimators\.hstf\]$",
+    ):
+        analyze(log, model, estimator="hstf", sets=["theta=0.5"], out_dir=tmp_path / "refused")
+    assert not (tmp_path / "refused").exists()
+
+
 def test_the_refusal_of_a_name_both_a_parameter_and_an_option_quotes_the_set_as_typed(tmp_path):
     """It wrote the value with six digits: `--set rho=0.123457` for `--set rho=0.123456789`."""
     model = tmp_path / "gain.toml"
