@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 from hybridlog.errors import LogError, OptionError, as_name, excerpt, first_few, names_apart
 from hybridlog.io.formats import LogFormat, format_list, indexed_log, log_format, logs_in
-from hybridlog.outputs import PathLike
+from hybridlog.outputs import MARKER, PathLike
 
 __all__ = [
     "FoundLogs",
@@ -100,8 +100,11 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
     folders: list[str] = []
     links: list[Path] = []
     hidden: list[Path] = []
+    written: list[str] = []
     for log in logs:
-        if os.path.isdir(log) and not indexed_log(log):
+        if os.path.isdir(log) and (Path(log) / MARKER).exists():
+            written.append(os.fspath(log))  # ``logs/*`` once ``--out logs/out`` was written
+        elif os.path.isdir(log) and not indexed_log(log):
             skipped = len(hidden)
             inside = logs_in(log, links, hidden)
             if not inside:
@@ -115,11 +118,30 @@ def batch_logs(logs: Sequence[PathLike]) -> FoundLogs:
             found += map(str, inside)
         else:
             given.append(os.fspath(log))
+    if written and not (found or given):
+        raise OptionError(
+            f"LOGS: {excerpt(written[0])} is a folder hybridlog wrote (a report or a batch), "
+            "which holds no log"
+        )
     paths, notes = _one_name_each(found, given)
+    notes += _written_note(written)
     notes += _links_note(links, [*folders, *given])
     notes += _hidden_note(hidden, paths)
     notes += _alike_note(paths)
     return FoundLogs(sorted(paths, key=natural_key), folders, tuple(notes))
+
+
+def _written_note(written: Sequence[str]) -> list[str]:
+    """The folders hybridlog wrote that LOGS named, left out: the batch's own ``--out`` too.
+
+    ``batch logs/* --out logs/out`` ran once, then was refused ("folder 'logs/out' holds no
+    log"): the shell's ``logs/*`` names the batch folder the first run wrote.
+    """
+    if not written:
+        return []
+    names = first_few(written, _HIDDEN_SHOWN, excerpt)
+    what = "a folder" if len(written) == 1 else "folders"
+    return [f"LOGS: left out {names}: {what} hybridlog wrote (reports or a batch), not logs"]
 
 
 _HIDDEN_SHOWN = 3

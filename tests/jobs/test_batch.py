@@ -26,7 +26,7 @@ import pytest
 from click.testing import CliRunner
 
 from hybridlog.cli import main
-from hybridlog.errors import OptionError, OutputError
+from hybridlog.errors import OptionError, OutputError, excerpt
 from hybridlog.io.formats import logs_in
 from hybridlog.io.tables import TableSource
 from hybridlog.io.writers import write_table
@@ -123,8 +123,15 @@ def test_a_folder_of_logs_is_searched_for_its_logs(tmp_path: Path) -> None:
     (tmp_path / "empty" / "readme.txt").write_text("")
     with pytest.raises(OptionError, match=r"folder .*empty.* holds no log"):
         batch_logs([tmp_path / "empty"])
-    with pytest.raises(OptionError, match=r"folder .*report.* holds no log"):
+    with pytest.raises(OptionError, match=r"^LOGS: '.*report' is a folder hybridlog wrote"):
         batch_logs([runs / "report"])
+    # `batch runs/* --out runs/report` again: its own batch folder is among runs/*, left out
+    again = batch_logs([runs / "s10.csv", runs / "report"])
+    assert again.paths == [str(runs / "s10.csv")]
+    assert again.notes == (
+        f"LOGS: left out {excerpt(str(runs / 'report'))}: a folder hybridlog wrote (reports or "
+        "a batch), not logs",
+    )
 
 
 def test_batch_of_a_folder_names_folders_from_it_and_keeps_out_of_it(tmp_path: Path) -> None:
