@@ -506,3 +506,51 @@ def test_default_truth_without_header_stamp_is_no_truth_with_time_header(tmp_pat
         LogError, match=r"from --map truth.mode=/truth/mode.data\): topic .* no header"
     ):
         load_signals(log, spec, ReadOptions(time="header", maps=("truth.mode=/truth/mode.data",)))
+
+
+def test_default_truth_a_json_read_cannot_use_is_no_truth(tmp_path: Path) -> None:
+    """A JSON truth topic found unusable only in its messages is no truth, as a ROS one is.
+
+    README's own example (a truth topic without ``header.stamp`` under ``--time header``)
+    stopped the run on an MCAP file of JSON messages: their schema (``{"type": "object"}``)
+    does not say which fields a message has, so only the read found the missing stamp, and
+    its error ended the analysis where a ROS topic's definition made the topic no truth.
+    So was a text in a truth state's field.  Named with ``--map``, it is still an error.
+    """
+    schema = json.dumps({"type": "object"})
+    names = ("/u", "/y", "/truth/x", "/truth/mode")
+    channels = [
+        Channel(
+            t, encoding="json", schema_name="S", schema_encoding="jsonschema", schema_text=schema
+        )
+        for t in names
+    ]
+
+    def message(topic: str, k: int, truth_x: object) -> bytes:
+        stamp = {"header": {"stamp": 5.0 + k / 10}}
+        if topic == "/truth/x":
+            return json.dumps({"data": truth_x}).encode()
+        if topic == "/truth/mode":
+            return json.dumps({"data": "a"}).encode()
+        return json.dumps({**stamp, "data": k}).encode()
+
+    spec = SignalSpec(inputs=("u",), outputs=("y",), states=("x",), mode_ids=("a",), dt=0.1)
+    for truth_x, options, cause in (
+        (1.5, ReadOptions(time="header"), "header.stamp: the message has no field 'header'"),
+        ("high", ReadOptions(), "the value is a string, not a number"),
+    ):
+        messages = [
+            (c, k * 10**8, message(t, k, truth_x)) for k in range(5) for c, t in enumerate(names)
+        ]
+        log = write_mcap(tmp_path / f"json_{truth_x}.mcap", channels, messages)
+        notes: dict[str, Any] = {}
+        signals = load_signals(log, spec, options, notes=notes)
+        assert signals.truth_states is None
+        unusable = {n.partition(" (")[0]: n for n in notes["truth_unusable"]}
+        header = options.time == "header"
+        assert set(unusable) == ({"truth.x", "truth.mode"} if header else {"truth.x"})
+        assert cause in unusable["truth.x"]
+        assert "truth.x" not in notes["fields"]
+        with pytest.raises(LogError, match=r"from --map truth.x=/truth/x.data\): "):
+            mapped = ReadOptions(time=options.time, maps=("truth.x=/truth/x.data",))
+            load_signals(log, spec, mapped)
