@@ -455,12 +455,15 @@ def _without_unreadable_truth(
     Ground truth found by default or by the model's ``[truth]`` table that cannot be read as
     asked is no truth, recorded in ``unusable_truth``, whether the mapping saw it from the
     field's definition (a ROS topic without ``header.stamp`` under ``--time header``) or the
-    read found it in the values (a JSON topic, whose schema need not list its fields: a
-    message without ``header``, a text where a number is wanted).  ``None`` when the field
-    also feeds an input, output or command, or a symbol named with ``--map``: that is an error.
+    read found it in the messages (a JSON topic, whose schema need not list its fields: a
+    message without ``header``; ``FieldError.unusable``).  ``None`` for a bad value (a text
+    among numbers is an error, as a CSV cell is), and when the field also feeds an input,
+    output or command, or a symbol named with ``--map``: that is an error.
     """
     readers = [s for s, read in mapping.fields_read().items() if read["field"] == err.name]
-    if any(not s.startswith(TRUTH_PREFIX) or mapping.origins.get(s) == "--map" for s in readers):
+    if not err.unusable or any(
+        not s.startswith(TRUTH_PREFIX) or mapping.origins.get(s) == "--map" for s in readers
+    ):
         return None
     why = f"{field_word} {err.name!r}: {err.reason}"
     return replace(
