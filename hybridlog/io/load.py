@@ -259,13 +259,20 @@ def load_signals(
                 ]
             )
         )
-        try:
-            reading = source.read(numeric, labels)
-        except FieldError as err:  # named as a field that does not fit the log is
-            place = mapping.place(err.name, info.field_word)
-            if place is None:
-                raise
-            raise LogError(f"{err.file}: {place}: {err.reason}") from None
+        while True:
+            try:
+                reading = source.read(numeric, labels)
+                break
+            except FieldError as err:  # named as a field that does not fit the log is
+                place = mapping.place(err.name, info.field_word)
+                if place is None:
+                    raise
+                without = _without_unreadable_truth(mapping, err, info.field_word)
+                if without is None:
+                    raise LogError(f"{err.file}: {place}: {err.reason}") from None
+                mapping = without  # read again, without that ground truth
+                numeric = [name for name in numeric if name != err.name]
+                labels = [name for name in labels if name != err.name]
         numeric_series = dict(reading.numeric)
         dropped: dict[str, int] = {}
         out_of_range: dict[str, int] = {}
@@ -438,6 +445,34 @@ def _note_trimmed_span(
             }
     if span:
         notes["nonfinite_span"] = span
+
+
+def _without_unreadable_truth(
+    mapping: SignalMap, err: FieldError, field_word: str
+) -> SignalMap | None:
+    """``mapping`` without the ground truth of a field whose values cannot be read, or ``None``.
+
+    Ground truth found by default or by the model's ``[truth]`` table that cannot be read as
+    asked is no truth, recorded in ``unusable_truth``, whether the mapping saw it from the
+    field's definition (a ROS topic without ``header.stamp`` under ``--time header``) or the
+    read found it in the messages (a JSON topic, whose schema need not list its fields: a
+    message without ``header``; ``FieldError.unusable``).  ``None`` for a bad value (a text
+    among numbers is an error, as a CSV cell is), and when the field also feeds an input,
+    output or command, or a symbol named with ``--map``: that is an error.
+    """
+    readers = [s for s, read in mapping.fields_read().items() if read["field"] == err.name]
+    if not err.unusable or any(
+        not s.startswith(TRUTH_PREFIX) or mapping.origins.get(s) == "--map" for s in readers
+    ):
+        return None
+    why = f"{field_word} {err.name!r}: {err.reason}"
+    return replace(
+        mapping,
+        truth_mode=None if mapping.truth_mode == err.name else mapping.truth_mode,
+        truth_states={x: f for x, f in mapping.truth_states.items() if f != err.name},
+        truth_components={c: f for c, f in mapping.truth_components.items() if f != err.name},
+        unusable_truth={**mapping.unusable_truth, **dict.fromkeys(readers, why)},
+    )
 
 
 def _without_empty_truth(

@@ -49,9 +49,13 @@ class FieldError(LogError):
     '/p.nope', from --map y=/p.nope): ...``.
     """
 
-    def __init__(self, file: str, name: str, reason: str) -> None:
+    def __init__(self, file: str, name: str, reason: str, *, unusable: bool = False) -> None:
         super().__init__(f"{file}: {name!r}: {reason}")
         self.file, self.name, self.reason = file, name, reason
+        self.unusable = unusable
+        """The messages lack what the reading asks of the whole topic (``header.stamp`` under
+        ``--time header``), as a typed topic's definition shows before the read: the field
+        cannot be used as asked, rather than holds a bad value."""
 
 
 @dataclass(frozen=True)

@@ -194,6 +194,7 @@ class TopicReader:
                         self.wanted[0].text,
                         f"topic {self.topic.label}: header.stamp{said} in "
                         f"{self._where(times, first + err.row)} (--time header needs it)",
+                        unusable=not reason.startswith(("is ", "has ")),  # a stamp it lacks
                     ) from None
         for wanted, values, labels, carried in zip(
             self.wanted, numbers, texts, present, strict=True

@@ -168,9 +168,9 @@ def _check_not_shadowing(path: Path, name: str) -> None:
     ``--model three_tank_hstf`` in a folder holding an edited copy named ``three_tank_hstf``
     ran the copy, while the report said ``model: three_tank_hstf``, the built-in's name: two
     models under one name, and which one ran was a guess the user could not see.  A file
-    with the built-in's own text (``hybridlog models NAME > NAME``) is the same model either
-    way; any other is refused, saying how to name each.  An empty one is the shell's file of
-    ``hybridlog models NAME > NAME``, made before the command read it.
+    with the built-in's own text (as ``hybridlog models NAME`` prints it) is the same model
+    either way; any other is refused, saying how to name each.  An empty one is also refused:
+    it is the shell's file of ``hybridlog models NAME > NAME``, made before the command read it.
 
     Raises
     ------

@@ -506,3 +506,54 @@ def test_default_truth_without_header_stamp_is_no_truth_with_time_header(tmp_pat
         LogError, match=r"from --map truth.mode=/truth/mode.data\): topic .* no header"
     ):
         load_signals(log, spec, ReadOptions(time="header", maps=("truth.mode=/truth/mode.data",)))
+
+
+def test_default_truth_a_json_read_cannot_use_is_no_truth(tmp_path: Path) -> None:
+    """A JSON truth topic found unusable only in its messages is no truth, as a ROS one is.
+
+    README's own example (a truth topic without ``header.stamp`` under ``--time header``)
+    stopped the run on an MCAP file of JSON messages: their schema (``{"type": "object"}``)
+    does not say which fields a message has, so only the read found the missing stamp, and
+    its error ended the analysis where a ROS topic's definition made the topic no truth.
+    Named with ``--map``, it is still an error; so is a bad value (a text among numbers).
+    """
+    schema = json.dumps({"type": "object"})
+    names = ("/u", "/y", "/truth/x", "/truth/mode")
+    channels = [
+        Channel(
+            t, encoding="json", schema_name="S", schema_encoding="jsonschema", schema_text=schema
+        )
+        for t in names
+    ]
+
+    def message(topic: str, k: int, truth_x: object) -> bytes:
+        stamp = {"header": {"stamp": 5.0 + k / 10}}
+        if topic == "/truth/x":
+            return json.dumps({"data": truth_x}).encode()
+        if topic == "/truth/mode":
+            return json.dumps({"data": "a"}).encode()
+        return json.dumps({**stamp, "data": k}).encode()
+
+    spec = SignalSpec(inputs=("u",), outputs=("y",), states=("x",), mode_ids=("a",), dt=0.1)
+
+    def log_with(truth_x: object) -> Path:
+        messages = [
+            (c, k * 10**8, message(t, k, truth_x)) for k in range(5) for c, t in enumerate(names)
+        ]
+        return write_mcap(tmp_path / f"json_{truth_x}.mcap", channels, messages)
+
+    log = log_with(1.5)
+    notes: dict[str, Any] = {}
+    signals = load_signals(log, spec, ReadOptions(time="header"), notes=notes)
+    assert signals.truth_states is None and signals.truth_modes is None
+    unusable = {n.partition(" (")[0]: n for n in notes["truth_unusable"]}
+    assert set(unusable) == {"truth.x", "truth.mode"}
+    assert "header.stamp: the message has no field 'header'" in unusable["truth.x"]
+    assert "truth.x" not in notes["fields"]
+    assert load_signals(log, spec, ReadOptions()).truth_states is not None  # by log time
+    mapped = ReadOptions(time="header", maps=("truth.x=/truth/x.data",))
+    with pytest.raises(LogError, match=r"from --map truth.x=/truth/x.data\): topic .* header"):
+        load_signals(log, spec, mapped)
+    # a bad value is no missing stamp: an error, found by default too
+    with pytest.raises(LogError, match=r"truth.x \(field '/truth/x.data', the default.*string"):
+        load_signals(log_with("high"), spec, ReadOptions())
