@@ -109,6 +109,6 @@ def misplaced_top_key(where: str, key: str) -> str:
     """The error of the top-level ``key`` written below the header of the table ``where``."""
     return (
         f"{key_path(where, key)}: {key!r} is a top-level key, but written below "
-        f"the [{where}] header it belongs to that table; move it above the "
+        f"the [{where}] header, it belongs to that table; move it above the "
         "first [table] header"
     )

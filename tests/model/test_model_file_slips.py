@@ -239,7 +239,7 @@ def test_the_sample_time_below_a_table_header_is_named_where_it_is():
     text = _replace(LINEAR_TWO_MODE, "dt = 0.1\n", "")
     text = _replace(text, "[initial]\n", "[initial]\ndt = 0.1\n")
     message = _refused(text, r"initial\.dt: 'dt' is a top-level key, but written below ")
-    assert "the [initial] header it belongs to that table" in message
+    assert "the [initial] header, it belongs to that table" in message
 
 
 @pytest.mark.parametrize(
