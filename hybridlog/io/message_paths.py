@@ -35,6 +35,7 @@ from typing import Any, TypeGuard
 
 import numpy as np
 
+from hybridlog.errors import excerpt
 from hybridlog.io.source import MAX_SECONDS, NS_PER_S, closest_names
 from hybridlog.signals import FloatArray
 
@@ -264,6 +265,20 @@ def _field_names(typedefs: Typedefs, msgtype: str) -> list[str]:
     ]
 
 
+def _refuse_constant(typedefs: Typedefs, msgtype: str, step: Step) -> None:
+    """Raise for a path step naming a constant of ``msgtype``: messages do not carry it.
+
+    It read "has no field 'POWER_SUPPLY_STATUS_FULL'; closest fields: power_supply_status",
+    of a name the definition holds.
+    """
+    for constant in typedefs[msgtype][0]:
+        if constant[0] == step:
+            raise PathError(
+                f"{msgtype} has no field {step!r}: it is a constant of the type ({constant[1]} "
+                f"{excerpt(constant[2], 40)[1:-1]}), which no message carries"
+            )
+
+
 def check_path(typedefs: Typedefs, msgtype: str, steps: Sequence[Step]) -> Target:
     """Follow ``steps`` through the definition of ``msgtype``.
 
@@ -297,6 +312,7 @@ def check_path(typedefs: Typedefs, msgtype: str, steps: Sequence[Step]) -> Targe
                 )
             fields = dict(typedefs[desc[1]][1])
             if step not in fields:
+                _refuse_constant(typedefs, desc[1], step)
                 raise no_field(desc[1], step, _field_names(typedefs, desc[1]))
             desc = fields[step]
             where = f"{where}.{step}" if where != msgtype else f".{step}"

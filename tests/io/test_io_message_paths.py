@@ -86,6 +86,17 @@ def test_a_path_without_a_topic_lists_close_ones() -> None:
         split_path("/joint_states.position[x]", TOPICS)
 
 
+def test_a_path_to_a_constant_says_it_is_one() -> None:
+    # it read "has no field 'POWER_SUPPLY_STATUS_FULL'; closest: ..." of a name the type has
+    defs = ros2_store().fielddefs
+    with pytest.raises(
+        PathError,
+        match=r"^sensor_msgs/msg/BatteryState has no field 'POWER_SUPPLY_STATUS_FULL': it is a "
+        r"constant of the type \(uint8 4\), which no message carries$",
+    ):
+        check_path(defs, "sensor_msgs/msg/BatteryState", ("POWER_SUPPLY_STATUS_FULL",))
+
+
 def test_definitions_check_paths_and_name_the_fields() -> None:
     defs = ros2_store().fielddefs
     assert check_path(defs, "sensor_msgs/msg/JointState", ("position", -1)).kind == "number"
