@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from hybridlog.io.exact import EXACT_LIMIT, inexact
 from hybridlog.io.json_schemas import MAX_JSON_DEPTH
 from hybridlog.io.message_paths import Step, spell_field
+from hybridlog.signals import MAX_MAGNITUDE
 
 
 class BeyondFloat(float):
@@ -139,18 +140,20 @@ def _is_json_number(value: object) -> bool:
 
 
 def _is_nonfinite(value: object) -> bool:
-    """A JSON number that is NaN or infinite as a float64, as analyze reads it.
+    """A JSON number analyze refuses: NaN, infinite or out of range as a float64.
 
     An integer of more than 308 digits is infinite there (analyze refuses it as beyond the
-    range of a float64, as the CSV reader does a cell of such digits, which inspect counts).
+    range of a float64, as the CSV reader does a cell of such digits, which inspect counts);
+    a number of magnitude :data:`~hybridlog.signals.MAX_MAGNITUDE` or more (1e300) is out of
+    range, refused as :func:`~hybridlog.io.source.usable_values` has it.
     """
-    if isinstance(value, int):
-        try:
-            float(value)
-        except OverflowError:
-            return True
+    if not isinstance(value, int | float):
         return False
-    return isinstance(value, float) and not math.isfinite(value)
+    try:
+        number = float(value)
+    except OverflowError:
+        return True
+    return not (math.isfinite(number) and abs(number) < MAX_MAGNITUDE)
 
 
 def absent_key(message: object, steps: Sequence[Step]) -> tuple[int, list[str]] | None:

@@ -3,7 +3,8 @@
 ``analyze`` refuses a sample of magnitude 2^480 or more (what corrupt bytes decode to) as it
 refuses NaN and inf, and ``--drop-nonfinite`` drops it with them.  ``inspect`` counted NaN
 and inf only: a ``float64`` field of 1e300 in a bag or an MCAP file showed ``nonfinite 0``
-(messages have no range column), a CSV or Parquet column showed it as its ``max``, and the
+(messages have no range column; a JSON field of 1e300 still did), a CSV or Parquet column
+showed it as its ``max``, and the
 user learnt of it from analyze's refusal.  Now inspect's ``nonfinite`` is what
 ``--drop-nonfinite`` drops, and a column's range that of the values analyze reads.  Files
 written by the ``mcap`` writer, rosbags' ROS 1 bag writer and polars.
@@ -21,7 +22,7 @@ import pytest
 from rosbags.rosbag1 import Writer as Ros1Writer
 
 from hybridlog.io import ReadOptions, SignalSpec, format_inspection, inspect_log, load_signals
-from tests.support.logfiles import Channel, float_messages, ros1_store, write_mcap
+from tests.support.logfiles import Channel, float_messages, json_bytes, ros1_store, write_mcap
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1",), dt=0.1)
 N = 10
@@ -35,6 +36,18 @@ Y = [
 def _mcap(path: Path) -> Path:
     messages = float_messages(TIMES_NS, range(N), 0) + float_messages(TIMES_NS, Y, 1)
     return write_mcap(path, [Channel("/u"), Channel("/y")], sorted(messages, key=lambda m: m[1]))
+
+
+def _json_mcap(path: Path) -> Path:
+    """JSON messages: a NaN is written as null, 1e300 and -2^480 as numbers (counted 0 before)."""
+    schema = '{"type": "object", "properties": {"data": {"type": "number"}}}'
+    channels = [Channel(t, "json", "Value", "jsonschema", schema) for t in ("/u", "/y")]
+    messages = [
+        (c, t, json_bytes({"data": None if v != v else v}))
+        for c, values in enumerate((range(N), Y))
+        for t, v in zip(TIMES_NS, values, strict=True)
+    ]
+    return write_mcap(path, channels, sorted(messages, key=lambda m: m[1]), profile="")
 
 
 def _bag(path: Path) -> Path:
@@ -58,6 +71,7 @@ def _table(path: Path) -> Path:
 
 LOGS: dict[str, tuple[str, Callable[[Path], Path]]] = {
     "mcap": ("log.mcap", _mcap),
+    "json mcap": ("log.mcap", _json_mcap),
     "ros1 bag": ("log.bag", _bag),
     "csv": ("log.csv", _table),
     "parquet": ("log.parquet", _table),
