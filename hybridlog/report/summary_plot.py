@@ -209,11 +209,33 @@ def _counts(rows: Sequence[BatchRow]) -> str:
     return ", ".join(parts)
 
 
+TITLE_MIN_CHARS = 12
+"""Fewest characters :func:`_title` cuts the title's first line to."""
+
+
+def _title(fig: Figure, title: str, counts: str) -> None:
+    r"""The figure's two-line title: ``title`` (model · estimator ...) over ``counts``.
+
+    The first line is one line within the figure's width: its control characters escaped
+    (a model named ``"a\nb"`` made the title three lines, the last over the first panel),
+    and a line wider than the figure cut in the middle with ``…`` (a model name of 300
+    characters ran off both sides, the estimator's name with it), as the log labels are.
+    """
+    line = excerpt(title, len(title) * 6)[1:-1]
+    text = fig.suptitle(f"{plain_text(line)}\n{counts}", fontsize=10)
+    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+    room = 0.98 * fig.bbox.width
+    while len(line) > TITLE_MIN_CHARS and (width := text.get_window_extent(renderer).width) > room:
+        limit = min(int(len(line) * room / width), len(line) - 1)
+        line = excerpt(title, max(limit, TITLE_MIN_CHARS))[1:-1]
+        text.set_text(f"{plain_text(line)}\n{counts}")
+
+
 def summary_figure(title: str, rows: Sequence[BatchRow]) -> Figure:
     """The figure of ``summary.png``: one panel per key metric over the logs."""
     ready = _READY.pop(len(rows), None)
     fig, axes = ready if ready is not None else _empty_figure(len(rows))
-    fig.suptitle(f"{plain_text(title)}\n{_counts(rows)}", fontsize=10)
+    _title(fig, title, _counts(rows))
     positions = range(len(rows))
     offline = any(row.report is not None and row.report.smoothing is not None for row in rows)
     for ax, (metric, label) in zip(axes, _PANELS, strict=True):

@@ -208,3 +208,24 @@ def test_the_cluster_plot_draws_mode_ids_as_written(tmp_path: Path) -> None:
         truth=[modes[k % 2] for k in range(60)],
     )
     assert written.stat().st_size > 0
+
+
+@pytest.mark.parametrize("name", ["a\nb\rc", "Wide_model_" * 30, "W" * 200 + "\n"])
+def test_a_batch_summary_title_is_two_lines_within_the_figure(name: str) -> None:
+    """A model name with a line break made the title three lines, the last over the first
+    panel; one of 300 characters ran off both sides of the figure, the estimator's name with
+    it.  The title is its model · estimator line and the counts line, inside the figure."""
+    from hybridlog.report.summary_plot import summary_figure
+    from hybridlog.report.summary_rows import BatchRow
+
+    rows = [BatchRow(log="a.csv", folder="a.csv", status="failed", report=None, error="x")]
+    fig = summary_figure(f"{name} · imm", rows)
+    title = fig._suptitle
+    assert title is not None
+    lines = title.get_text().split("\n")
+    assert len(lines) == 2
+    assert lines[0].endswith(" · imm")
+    renderer = fig.canvas.get_renderer()
+    box = title.get_window_extent(renderer)
+    assert box.x0 >= 0 and box.x1 <= fig.bbox.width
+    assert box.y0 >= max(ax.get_window_extent(renderer).y1 for ax in fig.axes)
