@@ -500,6 +500,25 @@ def test_a_db3_topic_name_stored_as_a_blob_is_refused(opened: str, tmp_path: Pat
     assert str(refusal.value) == f"{tmp_path / opened}: topic #1: its name is b'/u', not text"
 
 
+def _float_bag(bag: Path) -> tuple[Any, Any]:
+    """A ROS 2 sqlite3 bag of 10 messages on ``/u`` and ``/y`` (Float64), by rosbags; its types."""
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    number = store.types["std_msgs/msg/Float64"]
+    with Writer(bag, version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
+        connections = [
+            writer.add_connection(topic, "std_msgs/msg/Float64", typestore=store)
+            for topic in ("/u", "/y")
+        ]
+        for k in range(10):
+            for connection in connections:
+                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
+                writer.write(connection, 10**9 + k * 10**8, data)
+    return store, number
+
+
 @pytest.mark.parametrize(
     ("stored", "said"),
     [("'abc'", "text ('abc')"), ("12", "a number ('12')"), ("NULL", "NULL")],
@@ -510,22 +529,9 @@ def test_a_db3_message_stored_as_other_than_bytes_is_refused(
 ) -> None:
     # rosbags' writer; a sqlite3 column holds anything, and rosbags hands it on as it is:
     # text, a number or NULL for a message's data was a TypeError (a traceback)
-    from rosbags.rosbag2 import StoragePlugin, Writer
-    from rosbags.typesys import Stores, get_typestore
-
     from hybridlog.io import ReadOptions, SignalSpec, load_signals
 
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    number = store.types["std_msgs/msg/Float64"]
-    with Writer(tmp_path / "bag", version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
-        connections = [
-            writer.add_connection(topic, "std_msgs/msg/Float64", typestore=store)
-            for topic in ("/u", "/y")
-        ]
-        for k in range(10):
-            for connection in connections:
-                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
-                writer.write(connection, 10**9 + k * 10**8, data)
+    _float_bag(tmp_path / "bag")
     with sqlite3.connect(tmp_path / "bag" / "bag.db3") as connection:
         # without the NOT NULL of rosbags' table, as another tool may make it
         connection.executescript(
@@ -553,22 +559,9 @@ def test_a_db3_whose_write_ahead_log_holds_messages_is_refused(opened: str, tmp_
     # rosbags' writer, then messages written as a recorder with SQLite's write-ahead log
     # does (rosbag2's 'resilient' preset) and not yet checkpointed: rosbags opens the file
     # immutable, so the 10 messages of the first second were read and the rest left out.
-    from rosbags.rosbag2 import StoragePlugin, Writer
-    from rosbags.typesys import Stores, get_typestore
-
     from hybridlog.io import ReadOptions, SignalSpec, load_signals
 
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    number = store.types["std_msgs/msg/Float64"]
-    with Writer(tmp_path / "bag", version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
-        connections = [
-            writer.add_connection(topic, "std_msgs/msg/Float64", typestore=store)
-            for topic in ("/u", "/y")
-        ]
-        for k in range(10):
-            for connection in connections:
-                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
-                writer.write(connection, 10**9 + k * 10**8, data)
+    store, number = _float_bag(tmp_path / "bag")
     spec = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1",), dt=0.1)
     options = ReadOptions(maps=("u=/u.data", "y=/y.data"))
     database = tmp_path / "bag" / "bag.db3"
