@@ -31,7 +31,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from hybridlog.errors import excerpt
+from hybridlog.errors import excerpt, printable
 from hybridlog.report.coverage import mode_coverage
 from hybridlog.report.markdown import plural
 from hybridlog.report.plot_data import plain_text
@@ -221,7 +221,7 @@ def _title(fig: Figure, title: str, counts: str) -> None:
     and a line wider than the figure cut in the middle with ``…`` (a model name of 300
     characters ran off both sides, the estimator's name with it), as the log labels are.
     """
-    line = excerpt(title, len(title) * 6)[1:-1]
+    line = printable(title)
     text = fig.suptitle(f"{plain_text(line)}\n{counts}", fontsize=10)
     renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
     room = 0.98 * fig.bbox.width
