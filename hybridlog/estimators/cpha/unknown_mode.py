@@ -54,6 +54,13 @@ their parents are recorded, :attr:`Tracker.parents`, and the final winner's ance
 back) instead of each step's most likely hypothesis; the probabilities, ``p_unknown`` and
 ``ŷ(k|k-1)`` stay the causal estimate's, which ``post_processing.filtered`` holds whole.
 
+A sample no filtered successor explains (``rᵀS⁻¹r`` past
+:func:`~hybridlog.estimators.vouch.surprise_limit` for each, :attr:`Tracker.surprise`) is
+refused as ``imm`` refuses it (:func:`~hybridlog.estimators.vouch.check_surprise`): with the
+unknown mode a successor whose component is unknown explains any sample of the outputs it
+leaves unchecked, so this is a sample of an output no component can leave unchecked there
+(``unknown_mode = false``, ``unknown = 0``).
+
 Notes list the decomposition and filter cache hit rates; when ``candidates`` stopped a
 step's search while an unfiltered successor might still have entered the beam, at how many
 steps the beam is approximate; when a reported known mode sat in no filter
@@ -106,6 +113,7 @@ from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
+from hybridlog.estimators.vouch import check_surprise
 from hybridlog.model.component_structure import ComponentNames, unchecked_note
 from hybridlog.model.components import COMMAND_TOLERANCE, UNKNOWN, joint_label
 from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS, HybridModel
@@ -359,6 +367,8 @@ def _run(
     p_unknown = np.zeros((n, len(components)))
     # per step, the states the reported hypothesis held for want of a virtual input
     undetermined = np.zeros((n, n_x), dtype=np.bool_)
+    # per step, the smallest rᵀS⁻¹r over the successors filtered (Tracker.surprise)
+    surprise = np.full(n, np.nan)
     what = f"{NAME} over {n:,} samples, beam {options.beam:,}"
     # a large beam takes minutes: timed on the steps after the first, compilation excluded
     long_run = TimedWork(
@@ -407,6 +417,7 @@ def _run(
             variances[k] = np.diag(top.P)
             predictions[k] = tracker.prediction
             if k > 0:
+                surprise[k] = tracker.surprise
                 long_run.reached(k)
     compile_s = structure.seconds + filters.seconds - compiling
     runtime = time.perf_counter() - start - compile_s
@@ -478,6 +489,9 @@ def _run(
         timeline_columns=tuple(columns),
         states_not_estimated=_not_estimated(model, structure, best_assignments, undetermined),
     )
+    # a sample no successor explains (the unknown mode off, or a component without it):
+    # the beam's estimate of it is no more vouched for than imm's (vouch.check_surprise)
+    check_surprise(model, signals, filtered, surprise)
     if histories is None:
         return filtered
     offline_start = time.perf_counter()
