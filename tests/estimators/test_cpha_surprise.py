@@ -95,3 +95,15 @@ def test_the_unknown_mode_explains_it() -> None:
     result = run_unknown_mode(model, _log(model, 1e6), UnknownModeOptions())
     tank = next(c for c in result.timeline_columns if c.name == "mode.tank")
     assert tank.labels[int(tank.values[30])] == "unknown"
+
+
+def test_a_refusal_where_candidates_cut_the_search_says_so() -> None:
+    # one successor filtered a step: the unknown tank, which explains the spike, was not
+    model = parse_model(TWO.replace("TANK_UNKNOWN", "0.001"), origin="two.toml")
+    with pytest.raises(DivergenceError) as refused:
+        run_unknown_mode(model, _log(model, 1e6), UnknownModeOptions(beam=1, candidates=1))
+    assert str(refused.value).endswith(
+        "(at that step the bound of 1 candidates stopped the search before every successor "
+        "was filtered: a larger candidates may find one that explains the sample, a component "
+        "in the unknown mode)"
+    )

@@ -93,7 +93,7 @@ from dataclasses import replace
 import numpy as np
 
 from hybridlog.cluster.progress import TimedWork, duration_text
-from hybridlog.errors import LogError, ModelError
+from hybridlog.errors import DivergenceError, LogError, ModelError, suffixed
 from hybridlog.estimators.capabilities import missing_command
 from hybridlog.estimators.cpha.absorbing import (
     ABSORBING_SHARE,
@@ -113,7 +113,7 @@ from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
-from hybridlog.estimators.vouch import check_surprise
+from hybridlog.estimators.vouch import check_surprise, surprise_limit
 from hybridlog.model.component_structure import ComponentNames, unchecked_note
 from hybridlog.model.components import COMMAND_TOLERANCE, UNKNOWN, joint_label
 from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS, HybridModel
@@ -369,6 +369,7 @@ def _run(
     undetermined = np.zeros((n, n_x), dtype=np.bool_)
     # per step, the smallest rᵀS⁻¹r over the successors filtered (Tracker.surprise)
     surprise = np.full(n, np.nan)
+    cut = np.zeros(n, dtype=np.bool_)  # per step, whether candidates stopped the search
     what = f"{NAME} over {n:,} samples, beam {options.beam:,}"
     # a large beam takes minutes: timed on the steps after the first, compilation excluded
     long_run = TimedWork(
@@ -381,6 +382,8 @@ def _run(
         ),
         clock=lambda: time.perf_counter() - structure.seconds - filters.seconds,
     )
+    truncated = tracker.truncated
+    bound = options.candidates if options.candidates is not None else 10 * options.beam
     with long_run:
         for k in range(n):
             if k > 0:
@@ -418,6 +421,8 @@ def _run(
             predictions[k] = tracker.prediction
             if k > 0:
                 surprise[k] = tracker.surprise
+                cut[k] = tracker.truncated > truncated
+                truncated = tracker.truncated
                 long_run.reached(k)
     compile_s = structure.seconds + filters.seconds - compiling
     runtime = time.perf_counter() - start - compile_s
@@ -442,7 +447,6 @@ def _run(
         f"hits ({_rate(f_hits, f_misses)}); {tracker.filtered} cluster EKF steps",
     )
     if tracker.truncated:
-        bound = options.candidates if options.candidates is not None else 10 * options.beam
         notes += (
             f"the beam is approximate at {tracker.truncated} of {n - 1} steps: the bound of "
             f"{bound} candidates was reached while a successor not filtered might still have "
@@ -491,7 +495,18 @@ def _run(
     )
     # a sample no successor explains (the unknown mode off, or a component without it):
     # the beam's estimate of it is no more vouched for than imm's (vouch.check_surprise)
-    check_surprise(model, signals, filtered, surprise)
+    try:
+        check_surprise(model, signals, filtered, surprise)
+    except DivergenceError as err:
+        beyond = np.flatnonzero(surprise > surprise_limit(model.n_outputs))
+        if beyond.size and cut[beyond[0]]:  # an unfiltered successor may explain it
+            raise suffixed(
+                err,
+                f" (at that step the bound of {bound} candidates stopped the search before "
+                "every successor was filtered: a larger candidates may find one that explains "
+                "the sample, a component in the unknown mode)",
+            ) from err
+        raise
     if histories is None:
         return filtered
     offline_start = time.perf_counter()
