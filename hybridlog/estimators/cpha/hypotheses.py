@@ -395,6 +395,12 @@ class Tracker:
         self.prediction = np.full(outputs.shape[1], np.nan)
         """``ŷ(k|k-1)`` of the last :meth:`step`: that of its most likely successor before
         ``y(k)`` is weighed (see :meth:`step`); NaN before the first step."""
+        self.surprise = math.nan
+        """The smallest ``rᵀS⁻¹r`` (``-2 log P_O``, eq. (21)) over the successors the last
+        :meth:`step` filtered: past :func:`~hybridlog.estimators.vouch.surprise_limit` no
+        successor explains ``y(k)``, and the beam holds hypotheses that do not either (with
+        the unknown mode a successor whose unknown component leaves the output unchecked
+        explains it, ``P_O = 1``); NaN before the first step."""
         self.n_states = len(structure.names.states)
         self._no_prediction = np.full(outputs.shape[1], np.nan)
         # Per mode assignment (kept across steps): its successor table, its clusters' filters
@@ -748,6 +754,7 @@ class Tracker:
         state_keys = self._state_keys
         heappop, heappush = heapq.heappop, heapq.heappush
         floor = -math.inf  # the beam's lowest score once it is full
+        nearest = -math.inf  # the largest log P_O filtered (self.surprise)
         while tried < self.candidates:
             if not heap:
                 break
@@ -787,6 +794,8 @@ class Tracker:
                     steps[i] = result
                 results.append(result)
                 log_po += result.log_po
+            if log_po > nearest:
+                nearest = log_po
             entry = (prior + log_po, tried, j, code, results)
             if len(best) < beam:
                 heappush(best, entry)
@@ -796,6 +805,7 @@ class Tracker:
                 heapq.heapreplace(best, entry)
                 floor = best[0][0]
         proposals.counter = counter
+        self.surprise = -2.0 * nearest if tried else math.nan
         self.proposed += tried
         if heap and tried >= self.candidates and (len(best) < beam or -heap[0][0] > floor):
             self.truncated += 1  # a successor not filtered might have entered the beam

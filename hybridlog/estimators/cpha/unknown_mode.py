@@ -54,6 +54,13 @@ their parents are recorded, :attr:`Tracker.parents`, and the final winner's ance
 back) instead of each step's most likely hypothesis; the probabilities, ``p_unknown`` and
 ``ŷ(k|k-1)`` stay the causal estimate's, which ``post_processing.filtered`` holds whole.
 
+A sample no filtered successor explains (``rᵀS⁻¹r`` past
+:func:`~hybridlog.estimators.vouch.surprise_limit` for each, :attr:`Tracker.surprise`) is
+refused as ``imm`` refuses it (:func:`~hybridlog.estimators.vouch.check_surprise`): with the
+unknown mode a successor whose component is unknown explains any sample of the outputs it
+leaves unchecked, so this is a sample of an output no component can leave unchecked there
+(``unknown_mode = false``, ``unknown = 0``).
+
 Notes list the decomposition and filter cache hit rates; when ``candidates`` stopped a
 step's search while an unfiltered successor might still have entered the beam, at how many
 steps the beam is approximate; when a reported known mode sat in no filter
@@ -86,7 +93,7 @@ from dataclasses import replace
 import numpy as np
 
 from hybridlog.cluster.progress import TimedWork, duration_text
-from hybridlog.errors import LogError, ModelError
+from hybridlog.errors import DivergenceError, LogError, ModelError, suffixed
 from hybridlog.estimators.capabilities import missing_command
 from hybridlog.estimators.cpha.absorbing import (
     ABSORBING_SHARE,
@@ -106,6 +113,7 @@ from hybridlog.estimators.cpha.options import UnknownModeOptions
 from hybridlog.estimators.cpha.structure import Assignment, StructureCache
 from hybridlog.estimators.options import options_dict
 from hybridlog.estimators.result import EstimationResult, PostProcessing, TimelineColumn
+from hybridlog.estimators.vouch import check_surprise, surprise_limit
 from hybridlog.model.component_structure import ComponentNames, unchecked_note
 from hybridlog.model.components import COMMAND_TOLERANCE, UNKNOWN, joint_label
 from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS, HybridModel
@@ -359,6 +367,9 @@ def _run(
     p_unknown = np.zeros((n, len(components)))
     # per step, the states the reported hypothesis held for want of a virtual input
     undetermined = np.zeros((n, n_x), dtype=np.bool_)
+    # per step, the smallest rᵀS⁻¹r over the successors filtered (Tracker.surprise)
+    surprise = np.full(n, np.nan)
+    cut = np.zeros(n, dtype=np.bool_)  # per step, whether candidates stopped the search
     what = f"{NAME} over {n:,} samples, beam {options.beam:,}"
     # a large beam takes minutes: timed on the steps after the first, compilation excluded
     long_run = TimedWork(
@@ -371,6 +382,8 @@ def _run(
         ),
         clock=lambda: time.perf_counter() - structure.seconds - filters.seconds,
     )
+    truncated = tracker.truncated
+    bound = options.candidates if options.candidates is not None else 10 * options.beam
     with long_run:
         for k in range(n):
             if k > 0:
@@ -407,6 +420,9 @@ def _run(
             variances[k] = np.diag(top.P)
             predictions[k] = tracker.prediction
             if k > 0:
+                surprise[k] = tracker.surprise
+                cut[k] = tracker.truncated > truncated
+                truncated = tracker.truncated
                 long_run.reached(k)
     compile_s = structure.seconds + filters.seconds - compiling
     runtime = time.perf_counter() - start - compile_s
@@ -431,7 +447,6 @@ def _run(
         f"hits ({_rate(f_hits, f_misses)}); {tracker.filtered} cluster EKF steps",
     )
     if tracker.truncated:
-        bound = options.candidates if options.candidates is not None else 10 * options.beam
         notes += (
             f"the beam is approximate at {tracker.truncated} of {n - 1} steps: the bound of "
             f"{bound} candidates was reached while a successor not filtered might still have "
@@ -478,6 +493,20 @@ def _run(
         timeline_columns=tuple(columns),
         states_not_estimated=_not_estimated(model, structure, best_assignments, undetermined),
     )
+    # a sample no successor explains (the unknown mode off, or a component without it):
+    # the beam's estimate of it is no more vouched for than imm's (vouch.check_surprise)
+    try:
+        check_surprise(model, signals, filtered, surprise)
+    except DivergenceError as err:
+        beyond = np.flatnonzero(surprise > surprise_limit(model.n_outputs))
+        if beyond.size and cut[beyond[0]]:  # an unfiltered successor may explain it
+            raise suffixed(
+                err,
+                f" (at that step the bound of {bound} candidates stopped the search before "
+                "every successor was filtered: a larger candidates may find one that explains "
+                "the sample, a component in the unknown mode)",
+            ) from err
+        raise
     if histories is None:
         return filtered
     offline_start = time.perf_counter()
