@@ -209,6 +209,11 @@ class Capabilities:
                 )
         if self.needs_boolean_affine and not traits.booleans:
             return "needs a boolean-affine model (booleans = [...]); the model is not one"
+        if self.needs_boolean_affine and traits.surplus_booleans is not None:
+            return (
+                "needs at most as many booleans as states (paper 003, eq. (2)); "
+                f"{traits.surplus_booleans}"
+            )
         if traits.jumps and not self.applies_jump_maps:
             return "does not apply jump maps; the model has [jumps] state resets"
         if self.needs_markov_matrix and not traits.markov_matrix:
@@ -373,6 +378,23 @@ class ModelTraits:
     def booleans(self) -> bool:
         """True for a boolean-affine model (``booleans = [...]``)."""
         return self.model.has_booleans
+
+    @property
+    def surplus_booleans(self) -> str | None:
+        """Why a boolean-affine model has more booleans than states, or None.
+
+        ``D(x, u)`` is n × L: with L > n it is never of full column rank, so eq. (30) cannot
+        recover δ from the sliding observer's ``w``; found only once a log had been read, the
+        refusal came after ``compare``'s other estimators had run, their work lost, and
+        ``hybridlog models FILE`` listed ``sliding-mode`` among the model's estimators.
+        """
+        affine = self.model.boolean_affine
+        if affine is None or len(affine.booleans) <= self.model.n_states:
+            return None
+        return (
+            f"the model has {len(affine.booleans)} booleans ({', '.join(affine.booleans)}) and "
+            f"{self.model.n_states} state{'s' if self.model.n_states != 1 else ''}"
+        )
 
     @property
     def jumps(self) -> bool:

@@ -12,6 +12,7 @@ from hybridlog.errors import DivergenceError, LogError, ModelError, OptionError
 from hybridlog.estimators import prepare
 from hybridlog.estimators.sliding_mode import channel_gains, least_share, run_sliding_mode
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
+from hybridlog.jobs.model_description import check_and_describe
 from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.loader import load_model, parse_model
@@ -218,6 +219,23 @@ def test_a_missing_gain_and_other_kinds_of_model_are_refused(short_log):
         prepare(load_model("three_tank_hstf"), "sliding-mode")
     with pytest.raises(ModelError, match=r"'sliding-mode' needs a boolean-affine model"):
         prepare(parse_model(CONTINUOUS_TANK), "sliding-mode")
+
+
+def test_more_booleans_than_states_is_refused_before_any_log_is_read(tmp_path):
+    # D(x, u) is n x L, never of full column rank with L > n (eq. (30)): the refusal came only
+    # once the run started (compare's other estimators had run, their work lost) and
+    # `hybridlog models` listed sliding-mode among the model's estimators
+    text = SCALAR.replace('booleans = ["d"]', 'booleans = ["d", "b"]').replace("2*d", "2*d - b")
+    with pytest.raises(
+        ModelError,
+        match=r"'sliding-mode' needs at most as many booleans as states \(paper 003, eq\. \(2\)\); "
+        r"the model has 2 booleans \(d, b\) and 1 state",
+    ):
+        prepare(parse_model(text), "sliding-mode")
+    path = tmp_path / "two_booleans.toml"
+    path.write_text(text, encoding="utf-8")
+    (line,) = [li for li in check_and_describe(path).splitlines() if "estimators for it" in li]
+    assert line == "estimators for it: switching-observer"
 
 
 SCALAR = """
