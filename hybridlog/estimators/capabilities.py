@@ -254,7 +254,8 @@ class Capabilities:
         (:data:`~hybridlog.signals.NO_TRUE_MODE`), and a sampled one its gaps (the samples
         without one within ``dt/2``, whatever the gap's length), which the mode metrics leave
         out but such an estimator would read as a mode.  A one-mode model needs none: its
-        sigma is that mode (a log without the signal was refused, for a signal of one value).
+        sigma is that mode (a log without the signal was refused, for a signal of one value),
+        and a signal the log has, late or with gaps, is not read.
         """
         if self.applies_commands:
             missing = missing_command(model, signals)
@@ -264,11 +265,11 @@ class Capabilities:
             unmeasured = unmeasured_state(model, signals)
             if unmeasured is not None:
                 return unmeasured
-        if not self.needs_switching_signal:
+        if not self.needs_switching_signal or model.n_modes == 1:
+            # a one-mode model's sigma is that mode: the signal, or a gap in it, tells nothing
+            # (a log's sampled mode column with gaps was refused, the same log without it ran)
             return None
         if signals.truth_modes is None:
-            if model.n_modes == 1:  # sigma is the one mode: the signal would tell nothing
-                return None
             return (
                 "needs the switching signal in the log; map it with --map truth.mode=PATH "
                 "(or a 'mode' column)"
