@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
-    from hybridlog.signals import AlignedSignals
+    from hybridlog.signals import AlignedSignals, IntArray
 
 __all__ = [
     "MAX_JOINT_MODES",
@@ -274,7 +274,9 @@ class Capabilities:
                 "needs the switching signal in the log; map it with --map truth.mode=PATH "
                 "(or a 'mode' column)"
             )
-        from hybridlog.signals import covered_from, first_uncovered  # numpy: on a log only
+        import numpy as np
+
+        from hybridlog.signals import NO_TRUE_MODE, covered_from, first_uncovered  # on a log only
         from hybridlog.times import format_time
 
         first = covered_from(signals.truth_modes)
@@ -286,14 +288,42 @@ class Capabilities:
                 "signal that covers the log with --map truth.mode=PATH)"
             )
         gap = first_uncovered(signals.truth_modes)
-        if gap is not None:  # a sampled true mode's gap: no sample within dt/2
+        if gap is None:
+            return None
+        at = f"t={format_time(float(signals.time[gap]))} s (sample {gap})"
+        slower = _sampled_every(signals.truth_modes)
+        if slower is not None:  # the log's sample time, not a gap
+            missing = int(np.count_nonzero(signals.truth_modes == NO_TRUE_MODE))
             return (
                 "needs the switching signal at every sample; the true mode has none within "
-                f"dt/2 of t={format_time(float(signals.time[gap]))} s (sample {gap}): it "
-                "repeats its label, so it is sampled, and a gap in it may hide a switch (map a "
-                "switching signal that covers the log with --map truth.mode=PATH)"
+                f"dt/2 of {missing:,} of {signals.n_samples:,} sample times, the first at {at}: "
+                f"it is sampled every {slower:g} steps of dt = {model.timebase.dt:g} s "
+                "(median), so a switch between its samples would go unseen: use a model whose "
+                "dt is the log's sample time (or map a switching signal sampled every dt with "
+                "--map truth.mode=PATH)"
             )
+        return (
+            f"needs the switching signal at every sample; the true mode has none within dt/2 "
+            f"of {at}: it repeats its label, so it is sampled, and a gap in it may hide a "
+            "switch (map a switching signal that covers the log with --map truth.mode=PATH)"
+        )
+
+
+def _sampled_every(codes: IntArray) -> float | None:
+    """The median step, in samples, between the samples with a true mode, where 1.5 or more.
+
+    A log sampled at twice the model's ``dt`` was told of "a gap" at its second sample and
+    to map another switching signal, when its sample time is not the model's.
+    """
+    import numpy as np
+
+    from hybridlog.signals import NO_TRUE_MODE
+
+    covered = np.flatnonzero(codes != NO_TRUE_MODE)
+    if covered.size < 2:
         return None
+    steps = float(np.median(np.diff(covered)))
+    return steps if steps >= 1.5 else None
 
 
 def unmeasured_state(model: HybridModel, signals: AlignedSignals) -> str | None:
