@@ -214,6 +214,8 @@ class Capabilities:
                 "needs at most as many booleans as states (paper 003, eq. (2)); "
                 f"{traits.surplus_booleans}"
             )
+        if self.needs_boolean_affine and traits.singular_d is not None:
+            return f"needs D(x, u) of full column rank (paper 003, eq. (47)); {traits.singular_d}"
         if traits.jumps and not self.applies_jump_maps:
             return "does not apply jump maps; the model has [jumps] state resets"
         if self.needs_markov_matrix and not traits.markov_matrix:
@@ -293,10 +295,10 @@ class Capabilities:
         at = f"t={format_time(float(signals.time[gap]))} s (sample {gap})"
         slower = _sampled_every(signals.truth_modes)
         if slower is not None:  # the log's sample time, not a gap
-            missing = int(np.count_nonzero(signals.truth_modes == NO_TRUE_MODE))
+            uncovered = int(np.count_nonzero(signals.truth_modes == NO_TRUE_MODE))
             return (
                 "needs the switching signal at every sample; the true mode has none within "
-                f"dt/2 of {missing:,} of {signals.n_samples:,} sample times, the first at {at}: "
+                f"dt/2 of {uncovered:,} of {signals.n_samples:,} sample times, the first at {at}: "
                 f"it is sampled every {slower:g} steps of dt = {model.timebase.dt:g} s "
                 "(median), so a switch between its samples would go unseen: use a model whose "
                 "dt is the log's sample time (or map a switching signal sampled every dt with "
@@ -425,6 +427,39 @@ class ModelTraits:
         return (
             f"the model has {len(affine.booleans)} booleans ({', '.join(affine.booleans)}) and "
             f"{self.model.n_states} state{'s' if self.model.n_states != 1 else ''}"
+        )
+
+    @functools.cached_property
+    def singular_d(self) -> str | None:
+        """Why ``D(x, u)`` of a boolean-affine model is singular at every state, or None.
+
+        Its rank as a matrix of expressions (sympy, which takes an entry for 0 only where it
+        is 0 as written or once expanded: a rank it cannot tell is taken to be full, and the
+        run still refuses a ``D`` singular at every sample of the log).  A boolean read only
+        by ``h``, or two booleans that add the same term (``U + 2*V`` with ``L = 2``, one
+        state affected), make every ``D(x, u)`` singular: eq. (30) can never tell the modes
+        apart, which the run said only after a log had been read and ``hybridlog models``
+        listed ``sliding-mode`` among the model's estimators.
+        """
+        affine = self.model.boolean_affine
+        if affine is None or len(affine.booleans) > self.model.n_states:
+            return None
+        import sympy
+
+        from hybridlog.model.derivatives import boolean_affine_split
+
+        try:
+            _, columns = boolean_affine_split(affine.dynamics, affine.symbols())
+        except ValueError:  # the loader refuses it first
+            return None
+        rank = sympy.Matrix(columns).rank()
+        if rank >= len(affine.booleans):
+            return None
+        return (
+            f"its column j, the derivative of {affine.key}.dx by boolean j, gives a matrix of "
+            f"rank {rank} for the {len(affine.booleans)} booleans "
+            f"({', '.join(affine.booleans)}) at every state and input, so eq. (30) can never "
+            "tell its modes apart"
         )
 
     @property

@@ -238,6 +238,33 @@ def test_more_booleans_than_states_is_refused_before_any_log_is_read(tmp_path):
     assert line == "estimators for it: switching-observer"
 
 
+@pytest.mark.parametrize(
+    ("dx", "h", "rank"),
+    [
+        ('["-x1 + U + 2*V", "-x2"]', '["x1", "x2"]', 1),
+        ('["-x1 + U", "-x2"]', '["x1 + V", "x2"]', 1),
+    ],
+)
+def test_a_d_singular_at_every_state_is_refused_before_any_log_is_read(dx, h, rank):
+    # two booleans adding the same term to one state, or one read only by h: D(x, u) is
+    # singular everywhere, which the run said only once a log had been read (and models
+    # listed sliding-mode)
+    text = (
+        'time = "continuous"\ndt = 0.001\nintegration = {method = "euler", step = 0.001}\n'
+        'states = ["x1", "x2"]\noutputs = ["y1", "y2"]\nbooleans = ["U", "V"]\n'
+        f"[dynamics]\ndx = {dx}\nh = {h}\n[initial]\nstate = [1.0, 1.0]\n"
+    )
+    with pytest.raises(
+        ModelError,
+        match=rf"'sliding-mode' needs D\(x, u\) of full column rank \(paper 003, eq\. \(47\)\); "
+        rf"its column j, .* a matrix of rank {rank} for the 2 booleans \(U, V\)",
+    ):
+        prepare(parse_model(text), "sliding-mode")
+    full = text.replace('"-x2"]', '"-x2 + x1*V"]')
+    if "2*V" in dx:  # V now also drives x2: full rank
+        prepare(parse_model(full), "sliding-mode")
+
+
 SCALAR = """
 name = "scalar"
 time = "continuous"
