@@ -383,6 +383,10 @@ def missing_command(model: HybridModel, signals: AlignedSignals) -> str | None:
     return None
 
 
+RANK_POINTS = 16
+"""Random points at which :attr:`ModelTraits.singular_d` evaluates ``D(x, u)``."""
+
+
 class ModelTraits:
     """What a loaded model offers, as :meth:`Capabilities.mismatch` asks for it.
 
@@ -433,17 +437,20 @@ class ModelTraits:
     def singular_d(self) -> str | None:
         """Why ``D(x, u)`` of a boolean-affine model is singular at every state, or None.
 
-        Its rank as a matrix of expressions (sympy, which takes an entry for 0 only where it
-        is 0 as written or once expanded: a rank it cannot tell is taken to be full, and the
-        run still refuses a ``D`` singular at every sample of the log).  A boolean read only
-        by ``h``, or two booleans that add the same term (``U + 2*V`` with ``L = 2``, one
-        state affected), make every ``D(x, u)`` singular: eq. (30) can never tell the modes
-        apart, which the run said only after a log had been read and ``hybridlog models``
-        listed ``sliding-mode`` among the model's estimators.
+        A boolean read only by ``h``, or two booleans that add the same term (``U + 2*V``
+        with ``L = 2``, one state affected), make every ``D(x, u)`` singular: eq. (30) can
+        never tell the modes apart, which the run said only after a log had been read, and
+        ``hybridlog models`` listed ``sliding-mode`` among the model's estimators.  ``D`` is
+        evaluated at :data:`RANK_POINTS` random points around ``[initial] state`` (inputs in
+        [0.5, 1.5]; a point where it is not finite is skipped): where none has rank ``L``, no
+        state does but a set of measure 0 (its rank as expressions, by sympy, took minutes on
+        eight dense booleans).  A model ``D`` is finite at no such point of is not judged: the
+        run still refuses a ``D`` singular at every sample of the log.
         """
         affine = self.model.boolean_affine
         if affine is None or len(affine.booleans) > self.model.n_states:
             return None
+        import numpy as np
         import sympy
 
         from hybridlog.model.derivatives import boolean_affine_split
@@ -452,12 +459,30 @@ class ModelTraits:
             _, columns = boolean_affine_split(affine.dynamics, affine.symbols())
         except ValueError:  # the loader refuses it first
             return None
-        rank = sympy.Matrix(columns).rank()
-        if rank >= len(affine.booleans):
+        xs, us = self.model.symbols()
+        evaluate = sympy.lambdify([*xs, *us], sympy.Matrix(columns), modules="numpy")
+        draws = np.random.default_rng(0)
+        centre = np.asarray(self.model.initial_state, dtype=float)
+        scale = np.maximum(np.abs(centre), 1.0)
+        ranks = []
+        with np.errstate(all="ignore"):
+            for point in range(RANK_POINTS):
+                x = centre + scale * draws.uniform(-0.5, 0.5, centre.size)
+                if point % 2:  # half of them where every state is positive (a tank's sqrt)
+                    x = np.abs(x)
+                u = draws.uniform(0.5, 1.5, len(us))
+                try:
+                    D = np.asarray(evaluate(*x, *u), dtype=float)
+                except (ArithmeticError, ValueError, TypeError):
+                    continue
+                if np.isfinite(D).all():  # columns scaled alike: C1 = 4.7e295 is no rank loss
+                    size = np.abs(D).max(axis=0)
+                    ranks.append(int(np.linalg.matrix_rank(D / np.where(size > 0, size, 1.0))))
+        if not ranks or max(ranks) >= len(affine.booleans):
             return None
         return (
             f"its column j, the derivative of {affine.key}.dx by boolean j, gives a matrix of "
-            f"rank {rank} for the {len(affine.booleans)} booleans "
+            f"rank {max(ranks)} for the {len(affine.booleans)} booleans "
             f"({', '.join(affine.booleans)}) at every state and input, so eq. (30) can never "
             "tell its modes apart"
         )
