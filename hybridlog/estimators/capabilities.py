@@ -383,7 +383,7 @@ def missing_command(model: HybridModel, signals: AlignedSignals) -> str | None:
     return None
 
 
-RANK_POINTS = 16
+RANK_POINTS = 24
 """Random points at which :attr:`ModelTraits.singular_d` evaluates ``D(x, u)``."""
 
 
@@ -441,8 +441,9 @@ class ModelTraits:
         with ``L = 2``, one state affected), make every ``D(x, u)`` singular: eq. (30) can
         never tell the modes apart, which the run said only after a log had been read, and
         ``hybridlog models`` listed ``sliding-mode`` among the model's estimators.  ``D`` is
-        evaluated at :data:`RANK_POINTS` random points around ``[initial] state`` (inputs in
-        [0.5, 1.5]; a point where it is not finite is skipped): where none has rank ``L``, no
+        evaluated at :data:`RANK_POINTS` random points around ``[initial] state``, within 0.5,
+        5 and 50 times its size (at least 1) of it (inputs in [0.5, 1.5]; a point where it is
+        not finite is skipped): where none has rank ``L``, no
         state does but a set of measure 0 (its rank as expressions, by sympy, took minutes on
         eight dense booleans).  A model ``D`` is finite at no such point of is not judged: the
         run still refuses a ``D`` singular at every sample of the log.
@@ -467,7 +468,8 @@ class ModelTraits:
         ranks = []
         with np.errstate(all="ignore"):
             for point in range(RANK_POINTS):
-                x = centre + scale * draws.uniform(-0.5, 0.5, centre.size)
+                spread = 0.5 * 10.0 ** (point % 3)  # near the start, and 10, 100 times wider
+                x = centre + scale * draws.uniform(-spread, spread, centre.size)
                 if point % 2:  # half of them where every state is positive (a tank's sqrt)
                     x = np.abs(x)
                 u = draws.uniform(0.5, 1.5, len(us))
