@@ -265,6 +265,18 @@ def test_a_d_singular_at_every_state_is_refused_before_any_log_is_read(dx, h, ra
         prepare(parse_model(full), "sliding-mode")
 
 
+def test_a_d_that_acts_only_far_from_the_initial_state_is_not_refused():
+    # D is judged at random points around [initial] state: within 0.5 of it alone, a valve
+    # that drains only above 3 m (from 0.2 m) read as singular at every state
+    text = (
+        'time = "continuous"\ndt = 0.001\nintegration = {method = "euler", step = 0.001}\n'
+        'states = ["H"]\ninputs = ["q"]\noutputs = ["y"]\nbooleans = ["U"]\n'
+        '[dynamics]\ndx = ["q - Piecewise(0.5*sqrt(H), H > 3, 0)*U"]\nh = ["H"]\n'
+        "[initial]\nstate = [0.2]\n"
+    )
+    prepare(parse_model(text), "sliding-mode")
+
+
 SCALAR = """
 name = "scalar"
 time = "continuous"
