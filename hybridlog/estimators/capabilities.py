@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from hybridlog.model.hybrid_model import HybridModel
-    from hybridlog.signals import AlignedSignals
+    from hybridlog.signals import AlignedSignals, IntArray
 
 __all__ = [
     "MAX_JOINT_MODES",
@@ -209,6 +209,13 @@ class Capabilities:
                 )
         if self.needs_boolean_affine and not traits.booleans:
             return "needs a boolean-affine model (booleans = [...]); the model is not one"
+        if self.needs_boolean_affine and traits.surplus_booleans is not None:
+            return (
+                "needs at most as many booleans as states (paper 003, eq. (2)); "
+                f"{traits.surplus_booleans}"
+            )
+        if self.needs_boolean_affine and traits.singular_d is not None:
+            return f"needs D(x, u) of full column rank (paper 003, eq. (47)); {traits.singular_d}"
         if traits.jumps and not self.applies_jump_maps:
             return "does not apply jump maps; the model has [jumps] state resets"
         if self.needs_markov_matrix and not traits.markov_matrix:
@@ -249,7 +256,8 @@ class Capabilities:
         (:data:`~hybridlog.signals.NO_TRUE_MODE`), and a sampled one its gaps (the samples
         without one within ``dt/2``, whatever the gap's length), which the mode metrics leave
         out but such an estimator would read as a mode.  A one-mode model needs none: its
-        sigma is that mode (a log without the signal was refused, for a signal of one value).
+        sigma is that mode (a log without the signal was refused, for a signal of one value),
+        and a signal the log has, late or with gaps, is not read.
         """
         if self.applies_commands:
             missing = missing_command(model, signals)
@@ -259,16 +267,18 @@ class Capabilities:
             unmeasured = unmeasured_state(model, signals)
             if unmeasured is not None:
                 return unmeasured
-        if not self.needs_switching_signal:
+        if not self.needs_switching_signal or model.n_modes == 1:
+            # a one-mode model's sigma is that mode: the signal, or a gap in it, tells nothing
+            # (a log's sampled mode column with gaps was refused, the same log without it ran)
             return None
         if signals.truth_modes is None:
-            if model.n_modes == 1:  # sigma is the one mode: the signal would tell nothing
-                return None
             return (
                 "needs the switching signal in the log; map it with --map truth.mode=PATH "
                 "(or a 'mode' column)"
             )
-        from hybridlog.signals import covered_from, first_uncovered  # numpy: on a log only
+        import numpy as np
+
+        from hybridlog.signals import NO_TRUE_MODE, covered_from, first_uncovered  # on a log only
         from hybridlog.times import format_time
 
         first = covered_from(signals.truth_modes)
@@ -280,14 +290,42 @@ class Capabilities:
                 "signal that covers the log with --map truth.mode=PATH)"
             )
         gap = first_uncovered(signals.truth_modes)
-        if gap is not None:  # a sampled true mode's gap: no sample within dt/2
+        if gap is None:
+            return None
+        at = f"t={format_time(float(signals.time[gap]))} s (sample {gap})"
+        slower = _sampled_every(signals.truth_modes)
+        if slower is not None:  # the log's sample time, not a gap
+            uncovered = int(np.count_nonzero(signals.truth_modes == NO_TRUE_MODE))
             return (
                 "needs the switching signal at every sample; the true mode has none within "
-                f"dt/2 of t={format_time(float(signals.time[gap]))} s (sample {gap}): it "
-                "repeats its label, so it is sampled, and a gap in it may hide a switch (map a "
-                "switching signal that covers the log with --map truth.mode=PATH)"
+                f"dt/2 of {uncovered:,} of {signals.n_samples:,} sample times, the first at {at}: "
+                f"it is sampled every {slower:g} steps of dt = {model.timebase.dt:g} s "
+                "(median), so a switch between its samples would go unseen: use a model whose "
+                "dt is the log's sample time (or map a switching signal sampled every dt with "
+                "--map truth.mode=PATH)"
             )
+        return (
+            f"needs the switching signal at every sample; the true mode has none within dt/2 "
+            f"of {at}: it repeats its label, so it is sampled, and a gap in it may hide a "
+            "switch (map a switching signal that covers the log with --map truth.mode=PATH)"
+        )
+
+
+def _sampled_every(codes: IntArray) -> float | None:
+    """The median step, in samples, between the samples with a true mode, where 1.5 or more.
+
+    A log sampled at twice the model's ``dt`` was told of "a gap" at its second sample and
+    to map another switching signal, when its sample time is not the model's.
+    """
+    import numpy as np
+
+    from hybridlog.signals import NO_TRUE_MODE
+
+    covered = np.flatnonzero(codes != NO_TRUE_MODE)
+    if covered.size < 2:
         return None
+    steps = float(np.median(np.diff(covered)))
+    return steps if steps >= 1.5 else None
 
 
 def unmeasured_state(model: HybridModel, signals: AlignedSignals) -> str | None:
@@ -345,6 +383,10 @@ def missing_command(model: HybridModel, signals: AlignedSignals) -> str | None:
     return None
 
 
+RANK_POINTS = 24
+"""Random points at which :attr:`ModelTraits.singular_d` evaluates ``D(x, u)``."""
+
+
 class ModelTraits:
     """What a loaded model offers, as :meth:`Capabilities.mismatch` asks for it.
 
@@ -373,6 +415,79 @@ class ModelTraits:
     def booleans(self) -> bool:
         """True for a boolean-affine model (``booleans = [...]``)."""
         return self.model.has_booleans
+
+    @property
+    def surplus_booleans(self) -> str | None:
+        """Why a boolean-affine model has more booleans than states, or None.
+
+        ``D(x, u)`` is n × L: with L > n it is never of full column rank, so eq. (30) cannot
+        recover δ from the sliding observer's ``w``; found only once a log had been read, the
+        refusal came after ``compare``'s other estimators had run, their work lost, and
+        ``hybridlog models FILE`` listed ``sliding-mode`` among the model's estimators.
+        """
+        affine = self.model.boolean_affine
+        if affine is None or len(affine.booleans) <= self.model.n_states:
+            return None
+        return (
+            f"the model has {len(affine.booleans)} booleans ({', '.join(affine.booleans)}) and "
+            f"{self.model.n_states} state{'s' if self.model.n_states != 1 else ''}"
+        )
+
+    @functools.cached_property
+    def singular_d(self) -> str | None:
+        """Why ``D(x, u)`` of a boolean-affine model is singular at every state, or None.
+
+        A boolean read only by ``h``, or two booleans that add the same term (``U + 2*V``
+        with ``L = 2``, one state affected), make every ``D(x, u)`` singular: eq. (30) can
+        never tell the modes apart, which the run said only after a log had been read, and
+        ``hybridlog models`` listed ``sliding-mode`` among the model's estimators.  ``D`` is
+        evaluated at :data:`RANK_POINTS` random points around ``[initial] state``, within 0.5,
+        5 and 50 times its size (at least 1) of it (inputs in [0.5, 1.5]; a point where it is
+        not finite is skipped): where none has rank ``L``, no
+        state does but a set of measure 0 (its rank as expressions, by sympy, took minutes on
+        eight dense booleans).  A model ``D`` is finite at no such point of is not judged: the
+        run still refuses a ``D`` singular at every sample of the log.
+        """
+        affine = self.model.boolean_affine
+        if affine is None or len(affine.booleans) > self.model.n_states:
+            return None
+        import numpy as np
+        import sympy
+
+        from hybridlog.model.derivatives import boolean_affine_split
+
+        try:
+            _, columns = boolean_affine_split(affine.dynamics, affine.symbols())
+        except ValueError:  # the loader refuses it first
+            return None
+        xs, us = self.model.symbols()
+        evaluate = sympy.lambdify([*xs, *us], sympy.Matrix(columns), modules="numpy")
+        draws = np.random.default_rng(0)
+        centre = np.asarray(self.model.initial_state, dtype=float)
+        scale = np.maximum(np.abs(centre), 1.0)
+        ranks = []
+        with np.errstate(all="ignore"):
+            for point in range(RANK_POINTS):
+                spread = 0.5 * 10.0 ** (point % 3)  # near the start, and 10, 100 times wider
+                x = centre + scale * draws.uniform(-spread, spread, centre.size)
+                if point % 2:  # half of them where every state is positive (a tank's sqrt)
+                    x = np.abs(x)
+                u = draws.uniform(0.5, 1.5, len(us))
+                try:
+                    D = np.asarray(evaluate(*x, *u), dtype=float)
+                except (ArithmeticError, ValueError, TypeError):
+                    continue
+                if np.isfinite(D).all():  # columns scaled alike: C1 = 4.7e295 is no rank loss
+                    size = np.abs(D).max(axis=0)
+                    ranks.append(int(np.linalg.matrix_rank(D / np.where(size > 0, size, 1.0))))
+        if not ranks or max(ranks) >= len(affine.booleans):
+            return None
+        return (
+            f"its column j, the derivative of {affine.key}.dx by boolean j, gives a matrix of "
+            f"rank {max(ranks)} for the {len(affine.booleans)} booleans "
+            f"({', '.join(affine.booleans)}) at every state and input, so eq. (30) can never "
+            "tell its modes apart"
+        )
 
     @property
     def jumps(self) -> bool:

@@ -864,7 +864,7 @@ def run_switching_observer(
     given = signals.truth_modes is not None
     modes: IntArray = (
         np.ascontiguousarray(signals.truth_modes, dtype=np.int64)
-        if signals.truth_modes is not None
+        if signals.truth_modes is not None and model.n_modes > 1
         else np.zeros(count, dtype=np.int64)  # one mode: sigma is known without the log
     )
     timebase = model.timebase

@@ -108,6 +108,27 @@ def test_a_switching_signal_with_a_gap_is_refused_to_the_estimator_on_it(
     assert not out.exists()
 
 
+def test_a_switching_signal_slower_than_dt_is_said_to_be_the_log_s_sample_time(
+    tmp_path: Path,
+) -> None:
+    """Every other row of the clutch log (sampled every 20 ms, the model's dt 10 ms) was told of
+    "a gap" at its second sample and to map another switching signal."""
+    frame = pl.read_csv(SAMPLE_LOGS / "ice_clutch.csv", infer_schema=False)
+    log = tmp_path / "every_other.csv"
+    frame.gather_every(2).write_csv(log)
+    out = tmp_path / "out"
+    result = run(["analyze", str(log), "--model", "ice_clutch", "--out", str(out)], expect=2)
+    message = result.stderr.strip().splitlines()[-1]
+    assert message == (
+        f"hybridlog: error: {log}: estimator 'switching-observer' needs the switching signal "
+        "at every sample; the true mode has none within dt/2 of 400 of 801 sample times, the "
+        "first at t=0.01 s (sample 1): it is sampled every 2 steps of dt = 0.01 s (median), so "
+        "a switch between its samples would go unseen: use a model whose dt is the log's "
+        "sample time (or map a switching signal sampled every dt with --map truth.mode=PATH)"
+    )
+    assert not out.exists()
+
+
 def test_rows_missing_around_a_switch_leave_the_true_mode_unscored_there(
     tmp_path: Path,
 ) -> None:

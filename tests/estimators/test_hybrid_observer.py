@@ -198,6 +198,23 @@ def test_a_one_mode_model_needs_no_switching_signal_in_the_log(vdp_log, tmp_path
     assert "0 mode switches.\n" in text and "runs a one-mode model" in text
 
 
+def test_a_one_mode_model_runs_whatever_gaps_its_mode_column_has(vdp_log):
+    """The same log ran without its mode column but was refused with it where the column had
+    a gap ("needs the switching signal at every sample"): a one-mode model's sigma is that
+    mode, which no gap can hide a switch of; the gap's NO_TRUE_MODE is no mode to run in."""
+    model = parse_model(VAN_DER_POL)
+    gapped = vdp_log.truth_modes.copy()
+    gapped[1::2] = NO_TRUE_MODE
+    with_gaps = AlignedSignals(**{**vdp_log.__dict__, "truth_modes": gapped})
+    prepare(model, "switching-observer").check_signals(model, with_gaps)  # refused it
+    options = SwitchingObserverOptions(eigenvalues="-3,-6")
+    result = run_switching_observer(model, with_gaps, options)
+    np.testing.assert_array_equal(result.modes, 0)
+    np.testing.assert_array_equal(
+        result.state_means, run_switching_observer(model, vdp_log, options).state_means
+    )
+
+
 def test_the_gain_places_the_eigenvalues_of_the_brunovsky_pair():
     eigenvalues = (-1.5, -4.0, -7.0, -20.0)
     gain = brunovsky_gain(eigenvalues)

@@ -12,6 +12,7 @@ from hybridlog.errors import DivergenceError, LogError, ModelError, OptionError
 from hybridlog.estimators import prepare
 from hybridlog.estimators.sliding_mode import channel_gains, least_share, run_sliding_mode
 from hybridlog.estimators.sliding_mode_options import SlidingModeOptions
+from hybridlog.jobs.model_description import check_and_describe
 from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.model.compiled import compile_continuous
 from hybridlog.model.loader import load_model, parse_model
@@ -218,6 +219,62 @@ def test_a_missing_gain_and_other_kinds_of_model_are_refused(short_log):
         prepare(load_model("three_tank_hstf"), "sliding-mode")
     with pytest.raises(ModelError, match=r"'sliding-mode' needs a boolean-affine model"):
         prepare(parse_model(CONTINUOUS_TANK), "sliding-mode")
+
+
+def test_more_booleans_than_states_is_refused_before_any_log_is_read(tmp_path):
+    # D(x, u) is n x L, never of full column rank with L > n (eq. (30)): the refusal came only
+    # once the run started (compare's other estimators had run, their work lost) and
+    # `hybridlog models` listed sliding-mode among the model's estimators
+    text = SCALAR.replace('booleans = ["d"]', 'booleans = ["d", "b"]').replace("2*d", "2*d - b")
+    with pytest.raises(
+        ModelError,
+        match=r"'sliding-mode' needs at most as many booleans as states \(paper 003, eq\. \(2\)\); "
+        r"the model has 2 booleans \(d, b\) and 1 state",
+    ):
+        prepare(parse_model(text), "sliding-mode")
+    path = tmp_path / "two_booleans.toml"
+    path.write_text(text, encoding="utf-8")
+    (line,) = [li for li in check_and_describe(path).splitlines() if "estimators for it" in li]
+    assert line == "estimators for it: switching-observer"
+
+
+@pytest.mark.parametrize(
+    ("dx", "h", "rank"),
+    [
+        ('["-x1 + U + 2*V", "-x2"]', '["x1", "x2"]', 1),
+        ('["-x1 + U", "-x2"]', '["x1 + V", "x2"]', 1),
+    ],
+)
+def test_a_d_singular_at_every_state_is_refused_before_any_log_is_read(dx, h, rank):
+    # two booleans adding the same term to one state, or one read only by h: D(x, u) is
+    # singular everywhere, which the run said only once a log had been read (and models
+    # listed sliding-mode)
+    text = (
+        'time = "continuous"\ndt = 0.001\nintegration = {method = "euler", step = 0.001}\n'
+        'states = ["x1", "x2"]\noutputs = ["y1", "y2"]\nbooleans = ["U", "V"]\n'
+        f"[dynamics]\ndx = {dx}\nh = {h}\n[initial]\nstate = [1.0, 1.0]\n"
+    )
+    with pytest.raises(
+        ModelError,
+        match=rf"'sliding-mode' needs D\(x, u\) of full column rank \(paper 003, eq\. \(47\)\); "
+        rf"its column j, .* a matrix of rank {rank} for the 2 booleans \(U, V\)",
+    ):
+        prepare(parse_model(text), "sliding-mode")
+    full = text.replace('"-x2"]', '"-x2 + x1*V"]')
+    if "2*V" in dx:  # V now also drives x2: full rank
+        prepare(parse_model(full), "sliding-mode")
+
+
+def test_a_d_that_acts_only_far_from_the_initial_state_is_not_refused():
+    # D is judged at random points around [initial] state: within 0.5 of it alone, a valve
+    # that drains only above 3 m (from 0.2 m) read as singular at every state
+    text = (
+        'time = "continuous"\ndt = 0.001\nintegration = {method = "euler", step = 0.001}\n'
+        'states = ["H"]\ninputs = ["q"]\noutputs = ["y"]\nbooleans = ["U"]\n'
+        '[dynamics]\ndx = ["q - Piecewise(0.5*sqrt(H), H > 3, 0)*U"]\nh = ["H"]\n'
+        "[initial]\nstate = [0.2]\n"
+    )
+    prepare(parse_model(text), "sliding-mode")
 
 
 SCALAR = """

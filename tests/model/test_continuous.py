@@ -160,6 +160,21 @@ def test_plain_python_and_compiled_simulations_agree_and_noise_is_seeded():
     assert 0 < np.abs(compiled.outputs - quiet.outputs).max() < 1e-5  # noise variance 1e-12
 
 
+@pytest.mark.parametrize("step", [0.01, 0.001])
+def test_continuous_process_noise_is_an_intensity_whatever_the_step(step):
+    # docs/model_files.md: a sample's increment of dx = 0 has covariance process*dt, not
+    # process per integration step (which a user could not have told from the file)
+    text = (
+        'time = "continuous"\ndt = 0.01\n'
+        f'integration = {{method = "rk4", step = {step!r}}}\n'
+        'states = ["x"]\noutputs = ["y"]\n[modes.a]\ndx = ["0"]\nh = ["x"]\n'
+        "[noise]\nprocess = 2.0\nmeasurement = 1e-12\n[initial]\nstate = [0.0]\n"
+    )
+    log = simulate(parse_model(text), steps=20000, seed=5)
+    variance = np.var(np.diff(log.states[:, 0]))
+    assert abs(variance / (2.0 * 0.01) - 1) < 0.05  # 20,000 draws: 1 % standard error
+
+
 def test_the_disturbance_of_eq_49_is_added_to_dx():
     model = load_model("three_tank_valves")
     log = simulate(model, schedule="0:40", noise=False, disturbance=Disturbance(0.1, 50.0))
