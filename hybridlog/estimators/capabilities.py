@@ -485,8 +485,9 @@ class ModelTraits:
         return (
             f"its column j, the derivative of {affine.key}.dx by boolean j, gives a matrix of "
             f"rank {max(ranks)} for the {len(affine.booleans)} booleans "
-            f"({', '.join(affine.booleans)}) at every state and input, so eq. (30) can never "
-            "tell its modes apart"
+            f"({', '.join(affine.booleans)}) at each of the {len(ranks)} states and inputs "
+            "drawn around [initial] state (up to 50 times its size away), so eq. (30) could "
+            "not tell its modes apart there"
         )
 
     @property
