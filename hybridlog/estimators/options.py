@@ -17,7 +17,9 @@ field's type hint says what a value must be, by one rule for a TOML value of the
 ``Literal["a", "b"]``
     one of the listed strings.
 ``X | None``
-    ``"none"`` (or empty text) for ``None``, otherwise as ``X`` (TOML has no null).
+    ``"none"`` (any case) for ``None``, otherwise as ``X`` (TOML has no null); an empty
+    value is refused (``--set transition_stay=$STAY`` with ``STAY`` unset was ``None``, the
+    option's default run without a word).
 a list (``str`` made with ``items=float``, ``int`` or ``str``)
     text of items separated by commas (``"-10,-20"``), or, in a model file, a TOML array of
     items of that type (``[-10.0, -20.0]``), each read by the rule above and refused naming
@@ -103,8 +105,8 @@ T = TypeVar("T")
 _BOOLEANS = {"true": True, "false": False}
 """A ``--set`` text of a ``bool`` option: TOML's spellings, and only those."""
 
-_NONE = {"none", ""}
-"""The texts (any case) an ``X | None`` option reads as ``None``."""
+_NONE = "none"
+"""The text (any case) an ``X | None`` option reads as ``None``."""
 
 _NOT_A_NUMBER = "expected a finite number"
 """:func:`~hybridlog.numbers.parse_float`'s reason for text that spells no number at all."""
@@ -576,13 +578,13 @@ def _convert(raw: Any, kind: _Kind, *, text: bool) -> Any:
 def _from_text(text: str, kind: _Kind) -> Any:
     """A command-line text as the TOML value it spells for an option of ``kind``.
 
-    ``none`` (any case) or nothing for an optional one; the text itself for a string option;
+    ``none`` (any case) for an optional one; the text itself for a string option;
     ``true``/``false`` for a boolean; a number as :mod:`hybridlog.numbers` reads it.  Text
     that spells none of these is returned as it is, for :func:`_typed` to refuse.  (A quoted
     TOML string is that string, whatever the option: :func:`_convert`.)
     """
     stripped = text.strip(_WHITESPACE)
-    if kind.optional and stripped.lower() in _NONE:
+    if kind.optional and stripped.lower() == _NONE:
         return None
     if kind.base is str:
         return stripped
@@ -621,10 +623,11 @@ def _typed(value: Any, kind: _Kind, typed: str | None) -> Any:
     written: ``typed`` itself, or the TOML value (``true``, not Python's ``True``; a string
     in quotes, named a string where the option is not text).
     """
-    if kind.optional and (
-        value is None or (isinstance(value, str) and value.strip().lower() in _NONE)
-    ):
-        return None
+    if kind.optional:
+        if value is None or (isinstance(value, str) and value.strip().lower() == _NONE):
+            return None
+        if isinstance(value, str) and not value.strip(_WHITESPACE):
+            raise ValueError("got an empty value: write a value, or none")
     given = excerpt(typed) if typed is not None else _spelled(value, kind)
     if kind.base is bool:
         if isinstance(value, bool):

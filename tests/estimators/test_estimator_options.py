@@ -55,7 +55,6 @@ def parse(**values):
         ("label", " a b ", "a b"),
         ("shape", "square", "square"),
         ("limit", "none", None),
-        ("limit", "", None),
         ("limit", "2.5", 2.5),
         ("size", "None", None),
         ("size", "12", 12),
@@ -97,6 +96,7 @@ def test_values_are_read_by_their_type_hint(name, raw, value):
         ("label", 5, "expected text (a TOML string, in quotes), got '5'"),
         ("shape", "oval", "'oval' is not one of round, square"),
         ("limit", "6", "6 is outside [0, 5]"),
+        ("limit", "", "got an empty value: write a value, or none"),
     ],
 )
 def test_bad_values_are_one_line_naming_estimator_and_option(name, raw, reason):

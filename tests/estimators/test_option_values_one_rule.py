@@ -191,3 +191,13 @@ def test_a_file_default_that_another_option_enables_stays():
     _, beam_set = parse_sets(["beam=5"], "three_tank_hstf")
     with pytest.raises(OptionError, match=r"^--set beam=5: has no effect on estimator 'imm'"):
         prepare_estimators(model, ["imm"], beam_set)
+
+
+@pytest.mark.parametrize("text", ["", " "])
+def test_an_empty_value_of_an_optional_option_is_refused_not_read_as_none(text):
+    # `--set size=$SIZE` with SIZE unset ran the option's default without a word; so did
+    # size = "" in a model file
+    reason = "toy option 'size': got an empty value: write a value, or none"
+    assert from_set("size", text) == reason
+    assert from_file("size", f'"{text}"') == reason
+    assert from_set("size", "None") is None and from_file("size", '"none"') is None
