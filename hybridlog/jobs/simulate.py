@@ -290,5 +290,5 @@ def _scenario_values(texts: Mapping[str, str]) -> dict[str, float]:
         try:
             values[name] = parse_float(value)
         except ValueError as err:
-            raise OptionError(f"--set {excerpt(name)[1:-1]}: {err}, got {excerpt(value)}") from None
+            raise OptionError(f"{set_text(name, value)}: {err}, got {excerpt(value)}") from None
     return values

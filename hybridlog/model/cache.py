@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 import hybridlog
-from hybridlog.errors import ModelError, OptionError, excerpt
+from hybridlog.errors import ModelError, OptionError, excerpt, set_text
 from hybridlog.jit import cache_dir
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.compiled import framed_module, intact_module, model_key, store
@@ -121,7 +121,7 @@ def load_model_set(name_or_path: str | Path, texts: Mapping[str, str]) -> Hybrid
         try:
             parameters[name] = parse_float(text)
         except ValueError as err:
-            raise OptionError(f"--set {name}: {err}, got {excerpt(text)}") from None
+            raise OptionError(f"{set_text(name, text)}: {err}, got {excerpt(text)}") from None
     try:
         return load_model(name_or_path, parameters=parameters)
     except ModelError as err:

@@ -148,9 +148,9 @@ def test_cluster_options_are_read_strictly(tmp_path, option, value):
             "transition_stay=٠.٩٩",
             ("imm option 'transition_stay'", "expected a finite number, got '٠.٩٩'"),
         ),
-        ("hstf", "A=1_54", ("--set A: expected a finite number, got '1_54'",)),
-        ("hstf", "A=inf", ("--set A: expected a finite number, got 'inf'",)),
-        ("hstf", "A=1e-400", ("--set A: expected a number a double holds in full",)),
+        ("hstf", "A=1_54", ("--set A=1_54: expected a finite number, got '1_54'",)),
+        ("hstf", "A=inf", ("--set A=inf: expected a finite number, got 'inf'",)),
+        ("hstf", "A=1e-400", ("--set A=1e-400: expected a number a double holds in full",)),
     ],
 )
 def test_set_values_are_read_strictly(tmp_path, estimator, setting, fragments):
@@ -198,7 +198,7 @@ def test_simulate_scenario_parameters_are_read_strictly(tmp_path):
     out = tmp_path / "s.csv"
     _refused(
         ["simulate", "bioplex_pgc", "--out", str(out), "--set", "light_fault=9_50"],
-        "--set light_fault: expected a finite number, got '9_50'",
+        "--set light_fault=9_50: expected a finite number, got '9_50'",
     )
     assert not out.exists()
 

@@ -237,7 +237,7 @@ def test_a_controller_overflow_is_said_in_words_not_as_an_errno_tuple() -> None:
 @pytest.mark.parametrize(
     ("settings", "said"),
     [
-        (["A=inf"], "--set A: expected a finite number"),
+        (["A=inf"], "--set A=inf: expected a finite number"),
         (["nosuch=1"], "--set nosuch: neither a parameter of model"),
         (["A=150"], None),  # all else sound: the output's refusal
     ],
