@@ -45,6 +45,7 @@ __all__ = [
     "DECIDE_BLOCK",
     "EXHAUSTIVE_MAX",
     "EXHAUSTIVE_WORK_MAX",
+    "MOST_CLUSTER_NOTES",
     "NO_CLUSTER",
     "ClusterLabels",
     "cluster_notes",
@@ -555,6 +556,11 @@ def _kept_modes(
     return notes
 
 
+MOST_CLUSTER_NOTES = 100
+"""Clusters given a line each in the notes; the rest are counted in one line.  A centres file
+of 200,000 clusters wrote a line for each into report.md (11 MB) and report.json (38 MB)."""
+
+
 def cluster_notes(
     modes: IntArray,
     sizes: IntArray,
@@ -580,7 +586,7 @@ def cluster_notes(
         Name of the score.
     """
     notes: list[str] = []
-    for c, chosen in enumerate(modes):
+    for c, chosen in enumerate(modes[:MOST_CLUSTER_NOTES]):
         mode = mode_ids[chosen]
         if sizes[c] == 0:
             notes.append(f"cluster {c + 1} decides no sample: unused (labelled '{mode}')")
@@ -599,6 +605,14 @@ def cluster_notes(
         alternative = f"; {what} with it in mode {others}" if others else ""
         samples = f"{sizes[c]} sample{'' if sizes[c] == 1 else 's'}"
         notes.append(f"cluster {c + 1} ({samples}) -> mode '{mode}'{role}{alternative}")
+    rest = len(modes) - MOST_CLUSTER_NOTES
+    if rest > 0:
+        unused = int(np.count_nonzero(np.asarray(sizes)[MOST_CLUSTER_NOTES:] == 0))
+        notes.append(
+            f"clusters {MOST_CLUSTER_NOTES + 1:,} to {len(modes):,}: {rest:,} more, not listed "
+            f"({unused:,} of them decide no sample); every cluster's mode is in report.json's "
+            "options.classifier.cluster_modes (centers.json: modes)"
+        )
     for m, mode in enumerate(mode_ids):
         if not np.any((modes == m) & (sizes > 0)):
             notes.append(f"mode '{mode}' has no cluster: it is never decided")

@@ -788,3 +788,23 @@ def test_labelling_as_many_clusters_as_modes_past_the_exhaustive_search_finds_th
     assert "coordinate descent" in labels.notes[0]
     assert labels.modes.tolist() == truth.tolist()
     assert labels.score == 0.0
+
+
+def test_the_notes_of_many_clusters_list_the_first_and_count_the_rest() -> None:
+    """A centres file of 200,000 clusters gave report.md a line per cluster (11 MB)."""
+    from hybridlog.cluster.labels import MOST_CLUSTER_NOTES, cluster_notes
+
+    n = MOST_CLUSTER_NOTES + 150
+    modes = np.arange(n) % 2
+    sizes = np.zeros(n, dtype=np.int64)
+    sizes[:3] = 5
+    sizes[-1] = 7  # a cluster past the listed ones still decides samples
+    notes = cluster_notes(modes, sizes, ["1", "2"])
+    assert len(notes) == MOST_CLUSTER_NOTES + 1
+    assert notes[0].startswith("cluster 1 (5 samples) -> mode '1'")
+    assert notes[-1].startswith(
+        f"clusters {MOST_CLUSTER_NOTES + 1} to {n}: 150 more, not listed (149 of them decide no "
+        "sample)"
+    )
+    # a handful of clusters is listed in full, as before
+    assert len(cluster_notes(modes[:4], sizes[:4], ["1", "2"])) == 4
