@@ -62,7 +62,7 @@ from hybridlog.cluster.classifier import (
 )
 from hybridlog.cluster.labels import cluster_notes, label_clusters
 from hybridlog.cluster.subtractive import ClusteringOptionError
-from hybridlog.errors import DataShortError, LogError, OptionError
+from hybridlog.errors import DataShortError, LogError, ModelError, OptionError
 from hybridlog.estimators.lmi import ObserverGains, observer_gains
 from hybridlog.estimators.observer_options import ChiuOptions, check_centers
 from hybridlog.estimators.options import options_dict, parse_options, shown
@@ -98,6 +98,18 @@ def design_observer(model: HybridModel, decay_rate: float) -> tuple[LinearModes,
         model_name=model.origin or model.name,
     )
     return linear, gains
+
+
+def _outputs_blind(linear: LinearModes) -> bool:
+    """Whether no mode's outputs depend on the state and every mode's are the same map of u.
+
+    Then the switched observer predicts the same outputs under every cluster -> mode map.
+    """
+    return (
+        not np.any(linear.C)
+        and bool(np.all(linear.D[0] == linear.D))
+        and bool(np.all(linear.output_offsets == linear.output_offsets[0]))
+    )
 
 
 def _prediction_score(
@@ -230,6 +242,17 @@ def mode_classifier(
         if labels.undecided and len(labels.undecided) == populated:
             # every cluster's mode was the search's first: kmeans refused such a log (one
             # distinct point), chiu reported a mode accuracy of its labelling's order
+            linear = observer[0]
+            if _outputs_blind(linear):
+                # the model's, not the log's: a sensor gain set to 0 (--set g=0) blamed a
+                # "plant at rest" on a log that moved
+                raise ModelError(
+                    f"{model.origin or model.name}: {algorithm} cannot label its clusters as "
+                    "modes: the outputs read no state in any mode (every C_i is 0) and every "
+                    "mode adds the same D_i u + d_i, so every labelling predicts the same "
+                    "outputs whatever the log; the estimator option cluster_modes (analyze "
+                    "--set cluster_modes=2,1) sets the labels by hand"
+                )
             raise LogError(
                 f"{signals.source}: {algorithm} cannot label its clusters as modes: every "
                 f"labelling scores the same one-step prediction SSE ({labels.score:.4g}), so "

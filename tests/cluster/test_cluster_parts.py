@@ -764,3 +764,47 @@ def test_an_output_constant_in_the_centres_file_is_measured_as_the_decision_scal
         np.hstack([y, off])
     )
     assert "farthest y1(k) = " in note(np.hstack([y * 1e6, off]))
+
+
+@pytest.mark.parametrize("n", [6, 7])
+def test_labelling_as_many_clusters_as_modes_past_the_exhaustive_search_finds_the_best_map(
+    n: int,
+) -> None:
+    """k-means' k clusters for k modes: no single move is admissible, only exchanges.
+
+    With 6 modes (6^6 maps, past EXHAUSTIVE_MAX) the coordinate descent stopped at its
+    round-robin start: on a simulated 6-mode log kmeans' labels scored a one-step SSE of
+    17.7 (mode accuracy 5 %) where the exhaustive search found 5.7 (31 %).
+    """
+    rng = np.random.default_rng(n)
+    truth = rng.permutation(n)  # the map of lowest score
+    cost = rng.uniform(1.0, 2.0, size=(n, n))
+    cost[np.arange(n), truth] = 0.0
+
+    def score(labels: np.ndarray) -> float:
+        return float(cost[np.arange(n), labels].sum())
+
+    labels = label_clusters(n, [f"m{i}" for i in range(n)], score, np.full(n, 10))
+    assert "coordinate descent" in labels.notes[0]
+    assert labels.modes.tolist() == truth.tolist()
+    assert labels.score == 0.0
+
+
+def test_the_notes_of_many_clusters_list_the_first_and_count_the_rest() -> None:
+    """A centres file of 200,000 clusters gave report.md a line per cluster (11 MB)."""
+    from hybridlog.cluster.labels import MOST_CLUSTER_NOTES, cluster_notes
+
+    n = MOST_CLUSTER_NOTES + 150
+    modes = np.arange(n) % 2
+    sizes = np.zeros(n, dtype=np.int64)
+    sizes[:3] = 5
+    sizes[-1] = 7  # a cluster past the listed ones still decides samples
+    notes = cluster_notes(modes, sizes, ["1", "2"])
+    assert len(notes) == MOST_CLUSTER_NOTES + 1
+    assert notes[0].startswith("cluster 1 (5 samples) -> mode '1'")
+    assert notes[-1].startswith(
+        f"clusters {MOST_CLUSTER_NOTES + 1} to {n}: 150 more, not listed (149 of them decide no "
+        "sample)"
+    )
+    # a handful of clusters is listed in full, as before
+    assert len(cluster_notes(modes[:4], sizes[:4], ["1", "2"])) == 4

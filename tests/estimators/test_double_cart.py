@@ -207,6 +207,48 @@ def test_a_log_that_does_not_tell_the_modes_apart_is_refused_not_labelled_by_ord
     assert not any(note.startswith("WARNING: the one-step") for note in given.notes)
 
 
+BLIND = """
+name = "blind"
+dt = 0.1
+states = ["x1", "x2"]
+inputs = ["u"]
+outputs = ["y"]
+[parameters]
+g = 1.0
+[modes.lo]
+guard = "x2 <= 0"
+A = [[0.5, 0.3], [-0.3, 0.9]]
+B = [0.1, 0.2]
+C = ["g", 0.0]
+[modes.hi]
+guard = "x2 > 0"
+A = [[0.9, 0.1], [-0.2, 0.5]]
+B = [0.1, 0.3]
+C = ["g", 0.0]
+[noise]
+measurement = 1e-6
+[initial]
+state = [0.0, 0.0]
+covariance = 1.0
+[simulation]
+state = [0.1, -0.1]
+inputs = { u = "sin(0.5*t)" }
+"""
+"""Two stable modes seen through a sensor of gain ``g``."""
+
+
+@pytest.mark.parametrize("runner", ["chiu", "kmeans"])
+def test_a_model_whose_outputs_read_no_state_is_named_not_the_log(runner):
+    # its sensor gain set to 0 (--set g=0: C = 0 in both modes), every labelling predicts
+    # y = 0 whatever the log; the log was blamed ("a plant at rest") for one that moved
+    signals = signals_of(parse_model(BLIND), simulate(parse_model(BLIND), steps=200, seed=1))
+    blind = parse_model(BLIND.replace("g = 1.0", "g = 0.0"))
+    run = run_chiu if runner == "chiu" else run_kmeans
+    refused = f"{runner} cannot label its clusters as modes: the outputs read no state in any"
+    with pytest.raises(ModelError, match=refused):
+        run(blind, signals, ChiuOptions() if runner == "chiu" else KMeansOptions())
+
+
 def test_manual_labels_and_option_errors():
     model = load_model("double_cart_case1")
     signals = signals_of(model, simulate(model, steps=300, seed=1))

@@ -11,9 +11,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from hybridlog.estimators import prepare
+from hybridlog.estimators.lmi import observer_gains
 from hybridlog.jobs.model_description import check_and_describe
 from hybridlog.model.builtins import builtin_names, builtin_text
 from hybridlog.model.cache import load_model
@@ -234,3 +236,24 @@ def test_a_run_s_report_repeats_the_warnings_and_not_the_notes() -> None:
         model=quiet,
     )
     assert [n for n in report.notes if n in quiet.diagnoses] == [quiet.diagnoses[0]]
+
+
+def test_an_unseen_eigenvalue_just_inside_the_circle_is_not_said_to_be_refused() -> None:
+    """|λ| = 0.9999 is "on the boundary" for the warning, but the LMI (15) certifies a gain.
+
+    The warning said "chiu and kmeans refuse the mode" while ``analyze --estimator chiu`` ran
+    (certificate margin 2e-4): the warning now says how slowly the observer's error shrinks.
+    """
+    text = UNSEEN.replace("1.02]]", "0.9999]]")
+    modes = diagnoses(text)[-1]
+    assert "(the unobservable eigenvalue 0.9999)" in modes
+    assert "refuse" not in modes
+    assert "chiu's and kmeans' observer error there shrinks by only 0.9999 a sample" in modes
+    # and chiu does run it: the LMI (15) is feasible and certified for those modes
+    A = np.array(
+        [[[0.9, 0, 0], [0, 0.8, 0], [0, 0, 0.9999]], [[0.5, 0, 0], [0, 0.8, 0], [0, 0, 0.9999]]]
+    )
+    C = np.array([[[1.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]]])
+    assert observer_gains(A, C, ("a", "b")).margin > 0
+    # at or past 1 the warning still says the mode is refused, as the LMI does
+    assert "chiu and kmeans refuse the mode" in diagnoses(UNSEEN.replace("1.02]]", "1.0]]"))[-1]
