@@ -454,6 +454,7 @@ class ModelTraits:
         import numpy as np
         import sympy
 
+        from hybridlog.model.codegen import lambdify
         from hybridlog.model.derivatives import boolean_affine_split
 
         try:
@@ -461,7 +462,7 @@ class ModelTraits:
         except ValueError:  # the loader refuses it first
             return None
         xs, us = self.model.symbols()
-        evaluate = sympy.lambdify([*xs, *us], sympy.Matrix(columns), modules="numpy")
+        evaluate = lambdify([*xs, *us], sympy.Matrix(columns), "numpy")
         draws = np.random.default_rng(0)
         centre = np.asarray(self.model.initial_state, dtype=float)
         scale = np.maximum(np.abs(centre), 1.0)
