@@ -460,3 +460,47 @@ def test_a_model_whose_names_make_one_column_name_twice_is_refused(tmp_path: Pat
             dt=DT,
         )
     assert not out.exists()
+
+
+def _with_switches(report: Report, filtered: tuple[int, int], offline: tuple[int, int]) -> str:
+    """report.md of ``report`` with each side's (detected, missed) true switches and delays."""
+    smoothing = report.smoothing
+    assert smoothing is not None
+    sides = [
+        dataclasses.replace(
+            side, detected=detected, missed=missed, detection_delay_s=delay, detection_max_s=delay
+        )
+        for side, (detected, missed), delay in (
+            (smoothing.filtered, filtered, 0.5),
+            (smoothing.smoothed, offline, 0.0),
+        )
+    ]
+    replaced = dataclasses.replace(smoothing, filtered=sides[0], smoothed=sides[1])
+    return _section(render_markdown(dataclasses.replace(report, smoothing=replaced)), "Smoothing")
+
+
+def test_detection_delays_over_other_switches_are_not_compared() -> None:
+    """A mean delay is over the switches a side detected: a smoother that missed two switches
+    the filter caught showed "detection delay, mean | 0.428571 | 0 | -0.428571" (and the max
+    -2), read as a faster detection, where its mean left out the two it missed."""
+    result, signals = smoothed_run()
+    report = build_report(result, signals, log="run.csv", model_name="m", dt=DT)
+
+    def delay_rows(text: str) -> list[str]:
+        return [line for line in text.splitlines() if line.startswith("| detection delay")]
+
+    both = _with_switches(report, (7, 0), (7, 0))  # every switch detected on both sides
+    assert delay_rows(both) == [
+        "| detection delay, mean (s) | 0.5 | 0 | -0.5 |",
+        "| detection delay, max (s) | 0.5 | 0 | -0.5 |",
+    ]
+    assert "not given" not in both
+    other = _with_switches(report, (7, 0), (5, 2))
+    assert delay_rows(other) == [
+        "| detection delay, mean (s) | 0.5 | 0 | n/a (other switches) |",
+        "| detection delay, max (s) | 0.5 | 0 | n/a (other switches) |",
+    ]
+    assert "so their change is not given (see true switches missed)" in other
+    # as many detected on each side, some missed: which ones the counts cannot tell
+    same_count = _with_switches(report, (5, 2), (5, 2))
+    assert all(row.endswith("| n/a (switches missed) |") for row in delay_rows(same_count))
