@@ -563,10 +563,9 @@ def compare_command(
 @click.option(
     "--jobs",
     type=Jobs(min=1),
-    default=1,
-    show_default=True,
-    help="Logs analysed in parallel (local processes; not with --scheduler); auto: one per "
-    "core this process may use.",
+    default=None,
+    help="Logs analysed in parallel (local processes; not with --scheduler, not even 1); "
+    "auto: one per core this process may use.  [default: 1]",
 )
 @click.option(
     "--scheduler",
@@ -599,7 +598,7 @@ def batch_command(
     model_ref: str,
     estimator: str | None,
     out_dir: Path,
-    jobs: int | Literal["auto"],
+    jobs: int | Literal["auto"] | None,
     scheduler: str | None,
     plots: str,
     junit: str | None,
@@ -615,7 +614,7 @@ def batch_command(
 
         workers = usable_cores()
     else:
-        workers = jobs
+        workers = 1 if jobs is None else jobs
     if workers > 1 and scheduler is None and total > 1:
         # run_batch's workers fork from this forkserver: started before the batch job's
         # imports, it warms up while this process imports polars and numpy

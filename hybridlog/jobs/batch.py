@@ -141,7 +141,7 @@ def run_batch(
     *,
     out_dir: PathLike,
     estimator: str | None = None,
-    jobs: int | Literal["auto"] = 1,
+    jobs: int | Literal["auto"] | None = None,
     scheduler: str | None = None,
     sets: Sequence[str] = (),
     read: ReadOptions | None = None,
@@ -167,7 +167,7 @@ def run_batch(
     (:func:`~hybridlog.cluster.progress.reporting`), if any, is held around a model's
     first compiling, in this process or the workers (:meth:`WorkerPool.run
     <hybridlog.jobs.workers.WorkerPool.run>`); not on a Dask cluster's workers.  ``jobs``
-    worker processes (``"auto"``: one per core this process may use,
+    worker processes (default 1; ``"auto"``: one per core this process may use,
     :func:`~hybridlog.environment.usable_cores`) analyse the logs, or the Dask cluster whose
     scheduler is at ``scheduler``.  ``junit`` names a JUnit XML file to write
     (:func:`hybridlog.report.junit.write_junit`).  ``smooth`` and ``mode_sequence`` are
@@ -202,11 +202,14 @@ def run_batch(
     # "auto": one worker per core this process may use, named so in notes and errors (the
     # CLI passed the count, and a 2-core machine refused "--jobs 2" with --scheduler,
     # which a 1-core one took)
+    # Any --jobs given is refused with a scheduler, 1 too: "--jobs 1" read as one log at a time
+    # on the cluster, which ran as many at once as its workers have threads (None: not given)
+    given = jobs is not None
     auto = jobs == "auto"
-    jobs = usable_cores() if auto else arguments.integer(jobs, "jobs")
+    jobs = usable_cores() if auto else 1 if jobs is None else arguments.integer(jobs, "jobs")
     if jobs < 1:
         raise OptionError("--jobs: must be at least 1")
-    if (auto or jobs > 1) and scheduler is not None:  # ignored, as if it held the cluster back
+    if given and scheduler is not None:  # ignored, as if it held the cluster back
         raise OptionError(
             f"--jobs {'auto' if auto else jobs}: has no effect with --scheduler (the Dask "
             "workers' threads set how many logs run at once); leave it out"

@@ -27,7 +27,9 @@ stops at its next check (or publishes its finished folder) on its own.
 
 The workers are checked before anything is written (:func:`check_workers`): a scheduler
 without workers is waited for :data:`WORKER_WAIT_S` at most, then refused with one line
-(a batch waited forever for workers that never came); a worker with another hybridlog
+(a batch waited forever for workers that never came), and so is one whose workers are all
+paused (:func:`_paused_workers`: Dask runs no task on a worker past its memory limit's
+pause fraction, where hybridlog's imports alone leave a small one); a worker with another hybridlog
 version, or one whose working folder is not the client's when the batch names a relative
 path, is refused by name (its reports would record another version, or its relative paths
 name other files, or none).  Once the batch folder is made, every worker must see it
@@ -255,7 +257,10 @@ def check_workers(
     )
     try:
         client.wait_for_workers(1, timeout=WORKER_WAIT_S)
-    except TimeoutError as err:
+    except TimeoutError as err:  # it counts running workers: a paused one is not "none"
+        paused = _paused_workers(client)
+        if paused is not None:
+            raise OptionError(_all_paused(shown, paused, "before the first log")) from err
         raise OptionError(_no_workers(shown, "none joined")) from err
     try:
         facts = cast(dict[str, tuple[str, str]], client.run(_worker_facts))
@@ -290,6 +295,13 @@ def check_workers(
                 "here: other hybridlog sources, or another file at that path); the workers "
                 "must have this process's installation and files"
             )
+    # a worker Dask paused (its process past its memory limit's pause fraction, as the
+    # checks' imports may leave it) takes no task: the batch waited for it for good
+    since = time.monotonic()
+    while (paused := _paused_workers(client)) is not None:
+        if time.monotonic() - since >= WORKER_WAIT_S:
+            raise OptionError(_all_paused(shown, paused, "before the first log"))
+        time.sleep(POLL_S)
     return expected
 
 
@@ -364,6 +376,32 @@ def _no_workers(shown: str, why: str) -> str:
     return (
         f"--scheduler {shown}: the scheduler has no workers ({why} within "
         f"{WORKER_WAIT_S:g} s); start some: dask worker {shown}"
+    )
+
+
+def _paused_workers(client: Any) -> list[str] | None:
+    """The scheduler's workers when every one is paused (Dask runs no task there), or None.
+
+    Each as ``"ADDRESS (USED of its LIMIT memory limit)"``; ``None`` when a worker runs, or
+    there is none.
+    """
+    workers = client.scheduler_info(n_workers=-1).get("workers", {})
+    if not workers or any(info.get("status") != "paused" for info in workers.values()):
+        return None
+    return [
+        # in MB: size_text's "0.3 GB of its 0.3 GB" said nothing of a 350 MB worker
+        f"{address} ({(info.get('metrics', {}).get('memory') or 0) / 1e6:,.0f} MB of its "
+        f"{(info.get('memory_limit') or 0) / 1e6:,.0f} MB memory limit)"
+        for address, info in sorted(workers.items())
+    ]
+
+
+def _all_paused(shown: str, paused: Sequence[str], when: str) -> str:
+    listed = ", ".join(paused[:3]) + (f" and {len(paused) - 3} more" if len(paused) > 3 else "")
+    return (
+        f"--scheduler {shown}: every Dask worker is paused, so none runs a log ({when}; none "
+        f"resumed within {WORKER_WAIT_S:g} s): {listed}; Dask pauses a worker whose process "
+        "holds 80 % of its memory limit (its default): start the workers with more memory"
     )
 
 
@@ -478,7 +516,8 @@ def run_on_dask(
                 raise _ended(workers, why, _how_far(results, len(tasks), kept)) from None
             except TimeoutError:
                 try:
-                    running = bool(client.nthreads())
+                    paused = _paused_workers(client)
+                    running = paused is None and bool(client.nthreads())
                 except Exception as err:  # the scheduler gone (refused, closed, timed out)
                     why = excerpt(" ".join(f"{type(err).__name__}: {err}".split()), 80)[1:-1]
                     why = f"the scheduler is gone: {why}"
@@ -488,6 +527,11 @@ def run_on_dask(
                     continue
                 now = time.monotonic()
                 alone_since = now if alone_since is None else alone_since
+                if now - alone_since >= WORKER_WAIT_S and paused:
+                    how_far = _how_far(results, len(tasks), kept)
+                    raise OptionError(
+                        _all_paused(excerpt(workers.address)[1:-1], paused, f"mid-batch, {how_far}")
+                    ) from None
                 if now - alone_since >= WORKER_WAIT_S:
                     raise OptionError(
                         _no_workers(

@@ -175,3 +175,30 @@ def test_jobs_with_a_scheduler_is_refused(tmp_path: Path) -> None:
     with pytest.raises(OptionError, match=r"^--jobs 4: has no effect with --scheduler \("):
         run_batch([log], TANK, out_dir=tmp_path / "out", jobs=4, scheduler="tcp://127.0.0.1:9")
     assert not (tmp_path / "out").exists()  # refused before connecting or writing
+
+
+@pytest.mark.parametrize("jobs", [1, "auto"])
+def test_any_jobs_given_with_a_scheduler_is_refused(tmp_path: Path, jobs: int | str) -> None:
+    """``--jobs 1 --scheduler ADDR`` was taken, as if it held the cluster to one log at a time.
+
+    The cluster ran as many logs at once as its workers have threads; a ``--jobs`` left out
+    is ``None``, so that the 1 the user wrote is told from the default.
+    """
+    log = write_table(tmp_path / "s1.csv", tank_run(steps=20, seed=1).columns)
+    with pytest.raises(OptionError, match=rf"^--jobs {jobs}: has no effect with --scheduler \("):
+        run_batch([log], TANK, out_dir=tmp_path / "out", jobs=jobs, scheduler="tcp://127.0.0.1:9")
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_command_refuses_jobs_1_with_a_scheduler(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from hybridlog.cli import main
+
+    log = write_table(tmp_path / "s1.csv", tank_run(steps=20, seed=1).columns)
+    line = [str(log), "--model", TANK, "--out", str(tmp_path / "out"), "--jobs", "1"]
+    with pytest.raises(SystemExit) as exit_:
+        main(["batch", *line, "--scheduler", "tcp://127.0.0.1:9"])
+    assert exit_.value.code == 2
+    assert "--jobs 1: has no effect with --scheduler" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

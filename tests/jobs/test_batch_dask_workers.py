@@ -9,6 +9,7 @@ another file of the same name).  Each is now one line naming the scheduler or th
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import threading
 from collections.abc import Iterator
@@ -310,3 +311,63 @@ def test_a_worker_that_joins_without_the_batch_folder_fails_its_logs(
     # the file each task looks for is removed with the batch: nothing of it is left
     assert "shared" not in " ".join(p.name for p in out.iterdir())
     assert (out / "summary.md").is_file()
+
+
+def _pause(cluster: distributed.LocalCluster) -> None:
+    """Pause the cluster's worker as Dask does: its process now past its memory limit."""
+    from distributed.core import Status
+
+    (worker,) = cluster.workers.values()
+    worker.memory_manager.memory_limit = 1_000_000  # its monitor pauses it within 0.1 s
+    states = cluster.scheduler.workers.values()
+    for _ in range(500):  # the scheduler hears of it over TCP
+        if all(state.status == Status.paused for state in states):
+            return
+        threading.Event().wait(0.01)
+    raise AssertionError("the scheduler did not see the worker paused")
+
+
+def test_a_scheduler_whose_workers_are_all_paused_is_an_error_not_a_wait(
+    tmp_path: Path, quick: None
+) -> None:
+    """A worker paused for memory took no task: the batch waited for good, without a word.
+
+    hybridlog's imports alone (about 280 MB) leave a worker of ``--memory-limit 350MB`` past
+    Dask's pause fraction (80 %) once the checks have run.
+    """
+    log = write_table(tmp_path / "s1.csv", tank_run(steps=20, seed=1).columns)
+    with local_cluster(1) as paused:
+        _pause(paused)
+        address = paused.scheduler_address
+        with pytest.raises(OptionError) as err:
+            run_batch([log], TANK, out_dir=tmp_path / "out", scheduler=address)
+    assert str(err.value).startswith(
+        f"--scheduler {address}: every Dask worker is paused, so none runs a log (before the "
+        "first log; none resumed within 0.2 s): tcp://127.0.0.1:"
+    )
+    limit = r" \([\d,]+ MB of its [\d,]+ MB memory limit\); Dask pauses a worker whose process"
+    assert re.search(limit, str(err.value))
+    assert not (tmp_path / "out").exists()
+
+
+def test_workers_that_are_all_paused_mid_batch_stop_it(quick: None) -> None:
+    HELD.clear()
+    with local_cluster(1) as pausing:
+        client = dask_backend.connect(pausing.scheduler_address)
+        workers = dask_backend.check_workers(
+            client, pausing.scheduler_address, [], (TANK, model_hash(TANK))
+        )
+        arrived: list[int] = []
+
+        def pause(k: int) -> None:
+            arrived.append(k)
+            _pause(pausing)  # the second task runs on: the third is never started
+
+        try:
+            with pytest.raises(OptionError, match=r"is paused, .* \(mid-batch, 1 of 3 logs done"):
+                dask_backend.run_on_dask(
+                    held_task, [(0,), (1,), (2,)], client, workers, died=lambda k, _: -k, done=pause
+                )
+        finally:
+            HELD.set()
+    assert arrived == [0]
