@@ -68,6 +68,16 @@ if TYPE_CHECKING:
 LOG_FORMATS: tuple[str, ...] = ("csv", "parquet", "mcap", "bag", "ros2-sqlite3", "ros2-mcap")
 #: ``--encoding`` values for MCAP files.
 MCAP_ENCODINGS: tuple[str, ...] = ("cdr", "json", "ros1")
+
+_BAG_ENCODINGS: Final = {"bag": "ros1", "ros2-sqlite3": "cdr", "ros2-mcap": "cdr"}
+"""The one message encoding of each kind of bag (``--encoding`` may name it, to no effect)."""
+
+_BAG_NAMES: Final = {
+    "ros1": "a ROS 1 bag's messages are ROS 1's",
+    "cdr": "a ROS 2 bag's messages are CDR",
+}
+"""What a bag's own encoding is, for the refusal of another encoding."""
+
 SUFFIX_FORMATS = {".csv": "csv", ".parquet": "parquet", ".mcap": "mcap", ".bag": "bag"}
 
 FLOAT64 = "std_msgs/msg/Float64"
@@ -222,10 +232,16 @@ def check_log_target(
         raise OptionError(
             f"--encoding: unknown {encoding!r}; choose one of {', '.join(MCAP_ENCODINGS)}"
         )
-    # --encoding cdr of a table or a ROS 1 bag was ignored; a ROS 2 bag's messages are CDR
-    told = encoding is not None and not (encoding == "cdr" and chosen.startswith("ros2-"))
-    if told and chosen != "mcap":
-        raise OptionError(f"--encoding {encoding}: only MCAP files have a choice of encoding")
+    # --encoding cdr of a table or a ROS 1 bag was ignored; a bag's own encoding is no choice
+    own = _BAG_ENCODINGS.get(chosen)
+    if encoding is not None and encoding != own and chosen != "mcap":
+        what = (
+            f"{_BAG_NAMES[own]}, whatever its storage (--format mcap writes an MCAP "
+            "file of the encoding chosen)"
+            if own is not None
+            else f"only an MCAP file (.mcap) has a choice of encoding, not a {chosen} log"
+        )
+        raise OptionError(f"--encoding {encoding}: {what}")
     if not chosen.startswith("ros2-"):
         check_file_name(path, "--out")  # x.csv/: a folder's name, where a file is written
         _check_file_name(path, chosen)

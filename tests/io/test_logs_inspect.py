@@ -121,7 +121,7 @@ def test_simulate_refuses_what_it_cannot_write(tmp_path: Path) -> None:
     runner = CliRunner()
     cases = [
         (["--out", str(tmp_path / "run.txt")], "cannot tell the log format"),
-        (["--out", str(tmp_path / "run.csv"), "--encoding", "json"], "only MCAP files"),
+        (["--out", str(tmp_path / "run.csv"), "--encoding", "json"], "only an MCAP file"),
         (["--out", str(tmp_path / "run.csv"), "--format", "parquet"], "must be named *.parquet"),
     ]
     for args, message in cases:

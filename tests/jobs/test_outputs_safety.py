@@ -511,11 +511,12 @@ def test_force_replaces_only_files_hybridlog_wrote_unchanged(tmp_path: Path) -> 
         ("run", {"format": "bag"}, OptionError, "a ROS 1 bag must be named *.bag"),
         ("run.bag", {"format": "mcap"}, OptionError, "must be named *.mcap, not *.bag"),
         ("run.db3", {"format": "mcap"}, OptionError, "not *.db3 (the suffix of a ROS 2"),
-        ("run.csv", {"encoding": "json"}, OptionError, "only MCAP files"),
+        ("run.csv", {"encoding": "json"}, OptionError, "only an MCAP file (.mcap) has a choice"),
         # cdr, the MCAP files' default, named for a format without it was ignored
-        ("run.csv", {"encoding": "cdr"}, OptionError, "--encoding cdr: only MCAP files"),
-        ("run.bag", {"encoding": "cdr"}, OptionError, "--encoding cdr: only MCAP files"),
-        ("bag", {"format": "ros2-mcap", "encoding": "json"}, OptionError, "only MCAP files"),
+        ("run.csv", {"encoding": "cdr"}, OptionError, "--encoding cdr: only an MCAP file"),
+        ("run.bag", {"encoding": "cdr"}, OptionError, "cdr: a ROS 1 bag's messages are ROS 1's"),
+        # a ROS 2 bag in MCAP storage was told "only MCAP files have a choice of encoding"
+        ("bag", {"format": "ros2-mcap", "encoding": "json"}, OptionError, "are CDR, whatever"),
         ("run.mcap", {"encoding": "yaml"}, OptionError, "--encoding"),
         ("exists.mcap", {}, OutputError, "exists and hybridlog did not write it"),
         ("exists.mcap", {"format": "ros2-mcap", "force": True}, OutputError, "not a directory"),
@@ -543,6 +544,7 @@ def test_simulate_outputs_are_checked_up_front(
         ("bag", {"format": "ros2-mcap", "encoding": "cdr"}, "ros2-mcap"),  # its messages' own
         ("bag", {"format": "ros2-sqlite3"}, "ros2-sqlite3"),
         ("run.bag", {}, "bag"),
+        ("run.bag", {"encoding": "ros1"}, "bag"),  # a ROS 1 bag's own, as cdr is a ROS 2 bag's
     ],
 )
 def test_an_encoding_a_log_has_is_taken(
