@@ -295,7 +295,8 @@ def _failure(err: Exception) -> str:
         return (
             f"hybridlog: error: out of memory{_where(err)}: {str(err) or 'an allocation failed'}; "
             "the process may be limited below the machine's free memory (ulimit -v, "
-            "a container); analyse a shorter log or free memory"
+            "a container); free memory, or give less work (a shorter log; simulate: fewer "
+            "--steps)"
         )
     if isinstance(err, OSError) and (limit := limit_reached(err)) is not None:
         return f"hybridlog: error: {limit.what}{_where(err)} ({limit.detail}); {limit.advice}"

@@ -77,6 +77,8 @@ def test_a_non_blocking_read_is_no_limit() -> None:
 def test_an_empty_memory_error_still_says_what_failed() -> None:
     """``MemoryError()`` (``ulimit -v``) gave "out of memory in csv_tally.py:61: ;"."""
     assert "out of memory: an allocation failed;" in _failure(MemoryError())
+    # the remedy was "analyse a shorter log", also to `simulate`, which analyses none
+    assert "simulate: fewer --steps" in _failure(MemoryError())
 
 
 def test_a_umask_taking_the_owners_permissions_is_refused_before_writing(
