@@ -175,7 +175,8 @@ def run(group: click.Group, argv: Sequence[str] | None = None) -> None:
     Exit codes: 0 success, 1 a CI gate failed (or a batch's log or a compared estimator
     failed on its log), 2 bad usage or bad input (hybridlog's
     errors, click's usage errors, numerical trouble, anything unexpected), 130 interrupted.
-    ``--debug`` (anywhere on the line) re-raises instead, with the traceback.
+    ``--debug`` (anywhere on the line) prints the traceback before the line, the exit code
+    unchanged; called in-process (``argv`` given) it re-raises instead.
     """
     _PROCESS["one_command"] = argv is None
     if argv is None:
@@ -212,7 +213,11 @@ def run(group: click.Group, argv: Sequence[str] | None = None) -> None:
         raise
     except Exception as err:  # the last guard: never a traceback without --debug
         if debug:
-            raise
+            if not _PROCESS["one_command"]:
+                raise  # called in-process (a test, a debugger's session): the exception
+            # The process: the traceback, then the one line and the exit code it always has
+            # (re-raised, Python's 1 would read as a failed CI gate).
+            traceback.print_exception(err, file=sys.stderr)
         click.echo(one_line(_failure(err)), err=True)
         code = 2
     finally:

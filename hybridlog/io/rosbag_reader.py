@@ -337,6 +337,8 @@ class BagSource(MessageSource):
                 f"{self.path}: a ROS 2 bag directory needs metadata.yaml, which this one lacks "
                 f"(the recorder did not finish?){hint}"
             )
+        if "Invalid bag metadata" in text or "metadata key is missing" in text:
+            return f"{self.path}: metadata.yaml: {_metadata_problem(self._file, text)}"
         if "Profile is not ros2" in text:
             return (
                 f"{self.path}: holds an MCAP file whose profile is not 'ros2', so it is not a "
@@ -568,6 +570,28 @@ def unlisted_storage_files(folder: Path, names: list[str] | None) -> list[str]:
         and file.name.lower().endswith(STORAGE_SUFFIXES)  # as the log's suffix is read
         and file.is_file()
     )
+
+
+def _metadata_problem(folder: Path, said: str) -> str:
+    """What rosbags refused in ``metadata.yaml`` (``said``), naming the key.
+
+    rosbags names a missing key only as ``KeyError('duration')``, and a version that is not
+    a number not at all (``'>' not supported between instances of 'str' and 'int'``).
+    """
+    missing = re.search(r"KeyError\('([^']*)'\)", said)
+    if missing is not None:
+        return f"the key {missing[1]!r} is missing (rosbags needs it to read the bag)"
+    from ruamel.yaml import YAML
+    from ruamel.yaml.error import YAMLError
+
+    try:
+        document = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
+        version = document["rosbag2_bagfile_information"]["version"]
+    except (OSError, ValueError, YAMLError, LookupError, TypeError, AttributeError):
+        return f"not metadata rosbags can read ({said})"
+    if isinstance(version, bool) or not isinstance(version, int):
+        return f"rosbag2_bagfile_information.version is {excerpt(str(version))}, not a whole number"
+    return f"not metadata rosbags can read ({said})"
 
 
 def _listed_files(folder: Path) -> list[str] | None:

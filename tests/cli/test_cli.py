@@ -357,6 +357,25 @@ def test_debug_shows_the_traceback(tmp_path):
         )
 
 
+def test_debug_keeps_exit_code_2_for_bad_input(tmp_path):
+    # SPEC §4: exit 1 means a CI gate failed, 2 bad input; --debug only adds the traceback.
+    # It re-raised out of the process, whose exit code was then Python's 1: a pipeline run
+    # with --debug read a missing log as a failed gate.
+    out = tmp_path / "o"
+    args = ["--debug", "analyze", str(tmp_path / "missing.csv"), "--model", "three_tank_hstf"]
+    done = subprocess.run(
+        [sys.executable, "-m", "hybridlog", *args, "--out", str(out)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert done.returncode == 2, done.stderr
+    assert "Traceback (most recent call last)" in done.stderr
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("hybridlog: error: ") and "missing.csv: no such file" in last
+    assert not out.exists()
+
+
 def test_compare_writes_side_by_side_table(tank_log, tmp_path):
     out = tmp_path / "cmp"
     result = run(
