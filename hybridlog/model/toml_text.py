@@ -94,10 +94,10 @@ def _beyond_doubles(value: int) -> str:
         digits = f"{len(str(abs(value))):,}"
     except ValueError:  # more digits than str() writes (sys.get_int_max_str_digits): 0x...
         digits = f"more than {sys.get_int_max_str_digits():,}"
-    return _digits_beyond(digits)
+    return digits_beyond(digits)
 
 
-def _digits_beyond(digits: str) -> str:
+def digits_beyond(digits: str) -> str:
     """``a whole number of <digits> digits is beyond the largest double (...)``."""
     return f"a whole number of {digits} digits is beyond the largest double ({_LARGEST:.4g})"
 
@@ -113,7 +113,7 @@ def _long_integer(text: str, err: ValueError) -> str:
         return f"invalid TOML: {excerpt(str(err), 120)}"
     digits = len(found.group().replace("_", "").lstrip("0"))
     line = text.count("\n", 0, found.start()) + 1
-    return f"line {line}: {_digits_beyond(f'{digits:,}')}"
+    return f"line {line}: {digits_beyond(f'{digits:,}')}"
 
 
 def _parse_float(literal: str) -> float:

@@ -87,6 +87,18 @@ def test_an_expression_number_no_double_holds_is_refused(expression, written):
     _refused(text, r"modes\.a\.f\[0\]: " + written)
 
 
+@pytest.mark.parametrize("literal", ["9" * 5000, "1" + "0" * 4300])
+def test_an_expression_integer_of_more_digits_than_python_reads_is_refused_as_any_big_one(
+    literal,
+):
+    # Python's parser refused it with "Exceeds the limit (4300 digits) ... use
+    # sys.set_int_max_str_digits() to increase the limit": advice for a program, not a file
+    text = _replace(PLANT, '"0.9*x + u"', f'"0.9*x + {literal}*u"')
+    digits = f"{len(literal):,}"
+    message = _refused(text, rf"modes\.a\.f\[0\]: a whole number of {digits} digits is beyond")
+    assert "sys." not in message and len(message) < 300
+
+
 PLANT = """\
 dt = 1.0
 states = ["x"]
