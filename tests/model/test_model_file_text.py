@@ -263,3 +263,27 @@ def test_a_schedule_naming_a_mode_the_file_lacks_is_refused_when_loaded():
 def test_a_value_nested_thousands_deep_is_refused_in_one_line(value, pattern):
     # was "unexpected RecursionError" (tomllib on the arrays; the loader on the dotted key)
     _refused(value + "\n" + PLANT, pattern)
+
+
+@pytest.mark.parametrize(
+    ("blank", "shown", "named"),
+    [
+        ("\u00a0", r"'\xa0dt = 0.1'", "U+00A0 (no-break space)"),
+        ("\u2003", r"'\u2003dt = 0.1'", "U+2003 (em space)"),
+        ("\r", r"'\rdt = 0.1'", "U+000D (carriage return)"),
+    ],
+)
+def test_a_blank_toml_does_not_read_is_shown_and_named_in_the_invalid_line(blank, shown, named):
+    # str.strip() took it away from the quoted line: "Invalid statement: 'dt = 0.1'", a line
+    # that looks valid (a no-break space pasted from a web page), or no line at all
+    message = _refused(_replace(LINEAR_TWO_MODE, "dt = 0.1", blank + "dt = 0.1"), r"line \d+: ")
+    assert message.endswith(shown) and named in message
+    # a line of it alone was quoted as nothing: "line 3: invalid TOML: Invalid statement"
+    alone = _refused(_replace(LINEAR_TWO_MODE, "dt = 0.1", f"dt = 0.1\n{blank} "), r"line \d+: ")
+    assert named in alone
+
+
+def test_crlf_line_ends_are_not_named_in_an_invalid_line():
+    text = _replace(LINEAR_TWO_MODE, "dt = 0.1", "dt =").replace("\n", "\r\n")
+    message = _refused(text, r"line \d+: invalid TOML: Invalid value: 'dt ='$")
+    assert "U+000D" not in message
