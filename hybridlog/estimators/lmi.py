@@ -254,9 +254,17 @@ def unobservable_eigenvalues(A: FloatArray, C: FloatArray) -> list[complex]:
     """The eigenvalues of ``A`` that ``y = C x`` does not see (PBH: ``[λI − A; C]`` rank-deficient).
 
     Rank is judged by the smallest singular value against ``√ε`` times the size of
-    ``[A; C]`` (an eigenvalue is only as accurate as that for a non-normal ``A``).
+    ``[A; C]`` (an eigenvalue is only as accurate as that for a non-normal ``A``).  Each
+    row of ``C`` is scaled to length 1 first, which changes no rank: an output
+    ``y = x1 + 1e308*x2`` made the size of ``[A; C]`` overflow to inf and every eigenvalue
+    "unobservable", and one ``y = 1e-300*x1`` saw nothing against ``√ε``.
     """
     n = A.shape[0]
+    C = np.asarray(C, dtype=np.float64)
+    largest = np.max(np.abs(C), axis=1, keepdims=True) if C.size else np.ones((0, 1))
+    C = C / np.where(largest > 0.0, largest, 1.0)  # no overflow in the norm below
+    lengths = np.linalg.norm(C, axis=1, keepdims=True)
+    C = C / np.where(lengths > 0.0, lengths, 1.0)
     scale = max(1.0, float(np.linalg.norm(np.vstack([A, C]), 2)))
     tolerance = float(np.sqrt(np.finfo(np.float64).eps)) * scale
     unseen: list[complex] = []
@@ -313,7 +321,8 @@ def _infeasible_message(
             reasons.append(
                 f"mode(s) {', '.join(hard)} admit a gain in theory (every eigenvalue the "
                 f"outputs do not see is below {decay_rate:g} in size), but no solver found a "
-                "certified one: a decay rate nearer 1 asks less of them"
+                "certified one"
+                + (": a decay rate nearer 1 asks less of them" if decay_rate < 1.0 else "")
             )
         return (
             f"{model_name}: the observer LMI (15) of paper 001 is infeasible at decay rate "

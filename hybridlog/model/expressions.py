@@ -30,7 +30,13 @@ from typing import Any
 import sympy
 
 from hybridlog.errors import ModelError, excerpt
-from hybridlog.model.toml_text import PLAIN_KEY_LIMIT, held_digits, key_path, unheld_number
+from hybridlog.model.toml_text import (
+    PLAIN_KEY_LIMIT,
+    digits_beyond,
+    held_digits,
+    key_path,
+    unheld_number,
+)
 
 _CONDITIONS = (
     sympy.core.relational.Relational,
@@ -410,6 +416,7 @@ def parse_expression(
             f"{key}: {excerpt(text)} holds '#', which would silently drop the rest of the "
             "expression; a TOML comment goes after the closing quote"
         )
+    _refuse_unreadable_integer(text, key)
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as err:
@@ -622,6 +629,22 @@ def _negative_base_variable_power(power: sympy.Pow) -> bool:
         and base.is_extended_negative
         and any(str(symbol) != "k" for symbol in exponent.free_symbols)
     )
+
+
+_INTEGER_LITERAL = re.compile(r"(?<![\w.])[0-9]+(?![\w.])")
+"""A whole number as Python's parser reads one: digits not part of a name or a decimal."""
+
+
+def _refuse_unreadable_integer(text: str, key: str) -> None:
+    """Refuse a whole number of more digits than Python reads (4,300), as a 400-digit one is.
+
+    Python's parser raised a SyntaxError naming ``sys.set_int_max_str_digits()``, advice
+    for a program, where a 401-digit number was "beyond the largest double".
+    """
+    most = sys.get_int_max_str_digits()
+    for literal in _INTEGER_LITERAL.finditer(text):
+        if most and len(literal.group()) > most:
+            raise ModelError(f"{key}: {digits_beyond(f'{len(literal.group()):,}')}")
 
 
 _PLAIN_NUMBER = re.compile(r"(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?", re.ASCII)

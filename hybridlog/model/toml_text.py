@@ -19,6 +19,7 @@ from __future__ import annotations
 import re
 import sys
 import tomllib
+import unicodedata
 from typing import Any
 
 from hybridlog.errors import ModelError, excerpt
@@ -94,10 +95,10 @@ def _beyond_doubles(value: int) -> str:
         digits = f"{len(str(abs(value))):,}"
     except ValueError:  # more digits than str() writes (sys.get_int_max_str_digits): 0x...
         digits = f"more than {sys.get_int_max_str_digits():,}"
-    return _digits_beyond(digits)
+    return digits_beyond(digits)
 
 
-def _digits_beyond(digits: str) -> str:
+def digits_beyond(digits: str) -> str:
     """``a whole number of <digits> digits is beyond the largest double (...)``."""
     return f"a whole number of {digits} digits is beyond the largest double ({_LARGEST:.4g})"
 
@@ -113,7 +114,7 @@ def _long_integer(text: str, err: ValueError) -> str:
         return f"invalid TOML: {excerpt(str(err), 120)}"
     digits = len(found.group().replace("_", "").lstrip("0"))
     line = text.count("\n", 0, found.start()) + 1
-    return f"line {line}: {_digits_beyond(f'{digits:,}')}"
+    return f"line {line}: {digits_beyond(f'{digits:,}')}"
 
 
 def _parse_float(literal: str) -> float:
@@ -205,12 +206,28 @@ def _decode_error(text: str, err: tomllib.TOMLDecodeError) -> str:
     else:  # at the end of the document: the last line that holds something
         number = max((i + 1 for i, line in enumerate(lines) if line.strip()), default=1)
     hint = next((h for start, h in _HINTS.items() if what.startswith(start)), "")
-    shown = lines[number - 1].strip() if 0 < number <= len(lines) else ""
+    # only TOML's own blanks are trimmed: str.strip() also took away the no-break space or
+    # lone carriage return the parser refused, quoting 'time = "discrete"' as invalid
+    line = lines[number - 1].removesuffix("\r") if 0 < number <= len(lines) else ""
+    shown = line.strip(" \t")
+    unquoted = re.sub(r'"[^"]*"|\'[^\']*\'', "", line)  # a string may hold any blank
+    blank = next((c for c in unquoted if c.isspace() and c not in " \t"), None)
+    if blank is not None:
+        hint = ", ".join(filter(None, [hint, _foreign_blank(blank)]))
     return (
         f"line {number}: invalid TOML: {what}"
         + (f" ({hint})" if hint else "")
         + (f": {excerpt(shown, 60)}" if shown else "")
     )
+
+
+_CONTROL_BLANKS = {"\r": "carriage return", "\x0b": "vertical tab", "\x0c": "form feed"}
+
+
+def _foreign_blank(character: str) -> str:
+    """``U+00A0 NO-BREAK SPACE, which TOML does not read as a space``."""
+    name = _CONTROL_BLANKS.get(character) or unicodedata.name(character, "control").lower()
+    return f"U+{ord(character):04X} ({name}), which TOML does not read as a space or line end"
 
 
 _Trail = tuple[str, "_Trail"] | None

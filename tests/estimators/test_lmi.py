@@ -3,7 +3,12 @@
 import numpy as np
 import pytest
 
-from hybridlog.estimators.lmi import ObserverDesignError, certificate, observer_gains
+from hybridlog.estimators.lmi import (
+    ObserverDesignError,
+    certificate,
+    observer_gains,
+    unobservable_eigenvalues,
+)
 from hybridlog.estimators.switched_observer import linear_modes
 from hybridlog.model.loader import load_model
 
@@ -98,3 +103,26 @@ def test_jointly_infeasible_modes_are_named():
 def test_bad_decay_rate():
     with pytest.raises(ObserverDesignError, match="decay_rate"):
         observer_gains(np.eye(2)[None], np.ones((1, 1, 2)), ["a"], decay_rate=1.5)
+
+
+@pytest.mark.parametrize("gain", [1.0, 1e308, 1e-300])
+def test_an_output_of_huge_or_tiny_gain_sees_what_it_sees_at_gain_one(gain):
+    # y = x1 + 1e308*x2 made the size of [A; C] overflow to inf, so the PBH test called
+    # every eigenvalue of the (observable) double cart "unobservable" and analyze said mode
+    # '1' is not detectable; y = 1e-300*x1 saw nothing against the tolerance either
+    A = np.array(
+        [
+            [0.7627, 0.4596, 0.1174, 0.02006],
+            [-0.8992, 0.7627, 0.4396, 0.1174],
+            [0.1174, 0.02006, 0.8801, 0.4797],
+            [0.4396, 0.1174, -0.4596, 0.8801],
+        ]
+    )
+    assert unobservable_eigenvalues(A, np.array([[1.0, gain, 0.0, 0.0]])) == []
+    assert unobservable_eigenvalues(A, np.array([[gain, 0.0, 0.0, 0.0]])) == []
+    assert len(unobservable_eigenvalues(A, np.zeros((1, 4)))) == 4  # no output sees anything
+    if gain == 1e308:  # the solvers fail on it: the error says so, and asks for no rate above 1
+        with pytest.raises(ObserverDesignError) as refused:
+            observer_gains(A[None], np.array([[[1.0, gain, 0.0, 0.0]]]), ["1"], decay_rate=1.0)
+        assert "admit a gain in theory" in str(refused.value)
+        assert "not detectable" not in str(refused.value) and "nearer 1" not in str(refused.value)

@@ -87,6 +87,18 @@ def test_an_expression_number_no_double_holds_is_refused(expression, written):
     _refused(text, r"modes\.a\.f\[0\]: " + written)
 
 
+@pytest.mark.parametrize("literal", ["9" * 5000, "1" + "0" * 4300])
+def test_an_expression_integer_of_more_digits_than_python_reads_is_refused_as_any_big_one(
+    literal,
+):
+    # Python's parser refused it with "Exceeds the limit (4300 digits) ... use
+    # sys.set_int_max_str_digits() to increase the limit": advice for a program, not a file
+    text = _replace(PLANT, '"0.9*x + u"', f'"0.9*x + {literal}*u"')
+    digits = f"{len(literal):,}"
+    message = _refused(text, rf"modes\.a\.f\[0\]: a whole number of {digits} digits is beyond")
+    assert "sys." not in message and len(message) < 300
+
+
 PLANT = """\
 dt = 1.0
 states = ["x"]
@@ -251,3 +263,27 @@ def test_a_schedule_naming_a_mode_the_file_lacks_is_refused_when_loaded():
 def test_a_value_nested_thousands_deep_is_refused_in_one_line(value, pattern):
     # was "unexpected RecursionError" (tomllib on the arrays; the loader on the dotted key)
     _refused(value + "\n" + PLANT, pattern)
+
+
+@pytest.mark.parametrize(
+    ("blank", "shown", "named"),
+    [
+        ("\u00a0", r"'\xa0dt = 0.1'", "U+00A0 (no-break space)"),
+        ("\u2003", r"'\u2003dt = 0.1'", "U+2003 (em space)"),
+        ("\r", r"'\rdt = 0.1'", "U+000D (carriage return)"),
+    ],
+)
+def test_a_blank_toml_does_not_read_is_shown_and_named_in_the_invalid_line(blank, shown, named):
+    # str.strip() took it away from the quoted line: "Invalid statement: 'dt = 0.1'", a line
+    # that looks valid (a no-break space pasted from a web page), or no line at all
+    message = _refused(_replace(LINEAR_TWO_MODE, "dt = 0.1", blank + "dt = 0.1"), r"line \d+: ")
+    assert message.endswith(shown) and named in message
+    # a line of it alone was quoted as nothing: "line 3: invalid TOML: Invalid statement"
+    alone = _refused(_replace(LINEAR_TWO_MODE, "dt = 0.1", f"dt = 0.1\n{blank} "), r"line \d+: ")
+    assert named in alone
+
+
+def test_crlf_line_ends_are_not_named_in_an_invalid_line():
+    text = _replace(LINEAR_TWO_MODE, "dt = 0.1", "dt =").replace("\n", "\r\n")
+    message = _refused(text, r"line \d+: invalid TOML: Invalid value: 'dt ='$")
+    assert "U+000D" not in message
