@@ -581,17 +581,25 @@ def _metadata_problem(folder: Path, said: str) -> str:
     missing = re.search(r"KeyError\('([^']*)'\)", said)
     if missing is not None:
         return f"the key {missing[1]!r} is missing (rosbags needs it to read the bag)"
+    version = _bag_information(folder, "version")
+    if version is not None and (isinstance(version, bool) or not isinstance(version, int)):
+        return f"rosbag2_bagfile_information.version is {excerpt(str(version))}, not a whole number"
+    return f"not metadata rosbags can read ({said})"
+
+
+def _bag_information(folder: Path, key: str) -> Any:
+    """``rosbag2_bagfile_information.<key>`` of the folder's ``metadata.yaml``, as rosbags reads it.
+
+    ``None`` when the file, the table or the key is not there or not readable YAML.
+    """
     from ruamel.yaml import YAML
     from ruamel.yaml.error import YAMLError
 
     try:
         document = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
-        version = document["rosbag2_bagfile_information"]["version"]
+        return document["rosbag2_bagfile_information"][key]
     except (OSError, ValueError, YAMLError, LookupError, TypeError, AttributeError):
-        return f"not metadata rosbags can read ({said})"
-    if isinstance(version, bool) or not isinstance(version, int):
-        return f"rosbag2_bagfile_information.version is {excerpt(str(version))}, not a whole number"
-    return f"not metadata rosbags can read ({said})"
+        return None
 
 
 def _listed_files(folder: Path) -> list[str] | None:
@@ -599,14 +607,10 @@ def _listed_files(folder: Path) -> list[str] | None:
 
     ``None`` when it has no such list rosbags could read (rosbags refuses the bag then).
     """
-    from ruamel.yaml import YAML
-    from ruamel.yaml.error import YAMLError
-
+    paths = _bag_information(folder, "relative_file_paths")
     try:
-        document = YAML(typ="safe").load((folder / "metadata.yaml").read_text(encoding="utf-8"))
-        paths = document["rosbag2_bagfile_information"]["relative_file_paths"]
-        return [Path(str(path)).name for path in paths]
-    except (OSError, ValueError, YAMLError, LookupError, TypeError, AttributeError):
+        return None if paths is None else [Path(str(path)).name for path in paths]
+    except TypeError:  # not a list
         return None
 
 
