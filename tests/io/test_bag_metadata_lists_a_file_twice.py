@@ -11,32 +11,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
-from rosbags.typesys import Stores, get_typestore
 
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, inspect_log, load_signals
 from hybridlog.io.rosbag_reader import _listed_files, unlisted_storage_files
+from tests.support.logfiles import write_uy_bag
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
 MAPS = ("u=/u.data", "y=/y.data")
-
-
-def _bag(folder: Path, *, per_file: bool = False) -> Path:
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    number = store.types["std_msgs/msg/Float64"]
-    writer = Writer(folder, version=8, storage_plugin=StoragePlugin.SQLITE3)
-    if per_file:
-        writer.set_compression(CompressionMode.FILE, CompressionFormat.ZSTD)
-    with writer:
-        topics = [
-            writer.add_connection(t, "std_msgs/msg/Float64", typestore=store) for t in ("/u", "/y")
-        ]
-        for k in range(20):
-            for topic in topics:
-                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
-                writer.write(topic, 10**9 + k * 10**8, data)
-    return folder
 
 
 def _relist(folder: Path, names: list[str]) -> None:
@@ -51,7 +33,7 @@ def _relist(folder: Path, names: list[str]) -> None:
 
 @pytest.mark.parametrize("sort", [False, True])
 def test_a_storage_file_listed_twice_is_refused_naming_it(sort: bool, tmp_path: Path) -> None:
-    folder = _bag(tmp_path / "bag")
+    folder = write_uy_bag(tmp_path / "bag")
     load_signals(folder, SPEC, ReadOptions(maps=MAPS, sort=sort))  # read once: good
     _relist(folder, ["bag.db3", "bag.db3"])
     expected = (
@@ -66,7 +48,7 @@ def test_a_storage_file_listed_twice_is_refused_naming_it(sort: bool, tmp_path: 
 
 
 def test_an_empty_listing_still_names_the_files_it_leaves_out(tmp_path: Path) -> None:
-    folder = _bag(tmp_path / "bag")
+    folder = write_uy_bag(tmp_path / "bag")
     _relist(folder, [])
     assert unlisted_storage_files(folder, _listed_files(folder)) == ["bag.db3"]
 
@@ -77,7 +59,7 @@ def test_a_bag_reads_its_listing_once(tmp_path: Path, monkeypatch: pytest.Monkey
     the storage files rosbags opened."""
     from ruamel.yaml import YAML
 
-    folder = _bag(tmp_path / "bag")
+    folder = write_uy_bag(tmp_path / "bag")
     calls = []
     load = YAML.load
     monkeypatch.setattr(YAML, "load", lambda self, text: calls.append(1) or load(self, text))
@@ -89,7 +71,7 @@ def test_a_bag_compressed_per_file_lists_its_file(tmp_path: Path) -> None:
     """rosbags unpacks such a bag's files into a folder of its own: the listing is read from
     metadata.yaml then, not from the names of the files rosbags opened (bag.db3, which
     would call the bag's own bag.db3.zstd unlisted)."""
-    folder = _bag(tmp_path / "bag", per_file=True)
+    folder = write_uy_bag(tmp_path / "bag", per_file=True)
     assert [p.name for p in folder.glob("*.zstd")] == ["bag.db3.zstd"]
     notes: dict[str, object] = {}
     signals = load_signals(folder, SPEC, ReadOptions(maps=MAPS), notes=notes)

@@ -10,28 +10,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from rosbags.rosbag2 import StoragePlugin, Writer
-from rosbags.typesys import Stores, get_typestore
 
 from hybridlog.errors import LogError
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from tests.support.logfiles import write_uy_bag
 
 SPEC = SignalSpec(inputs=("u",), outputs=("y",), mode_ids=("1", "2"), dt=0.1)
 MAPS = ("u=/u.data", "y=/y.data")
-
-
-def _bag(folder: Path) -> Path:
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    number = store.types["std_msgs/msg/Float64"]
-    with Writer(folder, version=8, storage_plugin=StoragePlugin.SQLITE3) as writer:
-        topics = [
-            writer.add_connection(t, "std_msgs/msg/Float64", typestore=store) for t in ("/u", "/y")
-        ]
-        for k in range(5):
-            for topic in topics:
-                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
-                writer.write(topic, 10**9 + k * 10**8, data)
-    return folder
 
 
 @pytest.mark.parametrize(
@@ -47,7 +32,7 @@ def _bag(folder: Path) -> Path:
     ],
 )
 def test_bad_metadata_key_is_named(old: str, new: str, expected: str, tmp_path: Path) -> None:
-    folder = _bag(tmp_path / "bag")
+    folder = write_uy_bag(tmp_path / "bag")
     meta = folder / "metadata.yaml"
     text = meta.read_text()
     assert old in text

@@ -396,6 +396,30 @@ def write_ros2_bag(path: Path, records: Sequence[Record], storage: str) -> Path:
     return path
 
 
+def write_uy_bag(folder: Path, *, per_file: bool = False) -> Path:
+    """A ROS 2 ``.db3`` bag of two Float64 topics ``/u`` and ``/y``, 20 messages each at 10 Hz.
+
+    ``per_file``: compressed per file (zstd), as ``ros2 bag record --compression-mode file``.
+    """
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
+    from rosbags.rosbag2 import Writer as Ros2Writer
+
+    store = ros2_store()
+    number = store.types["std_msgs/msg/Float64"]
+    writer = Ros2Writer(folder, version=8, storage_plugin=StoragePlugin.SQLITE3)
+    if per_file:
+        writer.set_compression(CompressionMode.FILE, CompressionFormat.ZSTD)
+    with writer:
+        topics = [
+            writer.add_connection(t, "std_msgs/msg/Float64", typestore=store) for t in ("/u", "/y")
+        ]
+        for k in range(20):
+            for topic in topics:
+                data = store.serialize_cdr(number(data=float(k)), "std_msgs/msg/Float64")
+                writer.write(topic, 10**9 + k * 10**8, data)
+    return folder
+
+
 def write_ros1_bag(path: Path, records: Sequence[Record]) -> Path:
     from rosbags.rosbag1 import Writer as Ros1Writer
 
