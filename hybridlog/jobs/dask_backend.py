@@ -107,8 +107,9 @@ def connect(address: str) -> Any:
     ------
     OptionError
         When Dask is not installed, ``address`` is not an address (no port, an unknown
-        scheme), the scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`, or what
-        answers there does not speak Dask (:func:`_handshake`).
+        scheme, a blank at either end), the scheduler cannot be reached within
+        :data:`CONNECT_TIMEOUT_S`, or what answers there does not speak Dask
+        (:func:`_handshake`).
     """
     try:
         from distributed import Client
@@ -116,7 +117,14 @@ def connect(address: str) -> Any:
         raise OptionError(
             "--scheduler: Dask is not installed; install the extra: pip install 'hybridlog[dask]'"
         ) from err
-    shown = excerpt(address)[1:-1]
+    quoted = excerpt(address)
+    if address != address.strip():
+        raise OptionError(
+            f"--scheduler {quoted}: the address has a blank at its start or end; write it "
+            "without, e.g. tcp://host:8786"
+        )
+    # bare where it reads as written; quoted where a colon would run into the message's
+    shown = quoted if address.endswith(":") or not address else quoted[1:-1]
     try:
         _check_port(address)
         _handshake(address)

@@ -124,6 +124,17 @@ def test_scheduler_errors_are_one_line(tmp_path: Path, monkeypatch: pytest.Monke
         with pytest.raises(OptionError, match=f"not a scheduler address \\({why}.*tcp://host"):
             run_batch([log], TANK, out_dir=tmp_path / "out", scheduler=address)
     assert not (tmp_path / "out").exists()
+    # a blank around the address was taken as part of it ("unknown address scheme ' tcp'", or
+    # a 5 s wait for "tcp://127.0.0.1:1 "); an address ending in a colon was shown "tcp://::"
+    for address, said in (
+        (" tcp://127.0.0.1:9", "--scheduler ' tcp://127.0.0.1:9': the address has a blank"),
+        ("tcp://127.0.0.1:9\t", "--scheduler 'tcp://127.0.0.1:9\\t': the address has a blank"),
+        ("tcp://:", "--scheduler 'tcp://:': not a scheduler address"),
+    ):
+        with pytest.raises(OptionError) as refused:
+            run_batch([log], TANK, out_dir=tmp_path / "out", scheduler=address)
+        assert str(refused.value).startswith(said), str(refused.value)
+    assert not (tmp_path / "out").exists()
     monkeypatch.setitem(sys.modules, "distributed", None)  # as if Dask were not installed
     with pytest.raises(OptionError, match=r"pip install 'hybridlog\[dask\]'"):
         run_batch([log], TANK, out_dir=tmp_path / "out", scheduler="tcp://127.0.0.1:9")
