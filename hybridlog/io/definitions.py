@@ -12,6 +12,7 @@ then from rosbags' standard ROS 1 (Noetic) or ROS 2 (latest LTS) definitions.
 
 from __future__ import annotations
 
+import re
 from collections import OrderedDict
 from pathlib import Path
 from typing import Any
@@ -174,12 +175,29 @@ def parse_definition(msgtype: str, encoding: str, text: str) -> dict[str, Any]:
             parts = text.split(_IDL_SEPARATOR)[1:] if text.startswith(_IDL_SEPARATOR) else [text]
             for part in parts:
                 idl = part.split("\n", 1)[1] if part.startswith("IDL: ") else part
-                types.update(get_types_from_idl(idl))
+                types.update(get_types_from_idl(_without_directives(idl)))
     except (TypesysError, ValueError, KeyError, IndexError, AttributeError, TypeError) as err:
         raise DefinitionError(
             f"its stored message definition cannot be parsed ({library_reason(err)})"
         ) from err
     return types
+
+
+_DIRECTIVE = re.compile(r"^[ \t]*#[^\n]*", re.MULTILINE)
+"""A preprocessor line of an IDL file: ``#include "std_msgs/msg/Header.idl"``, ``#pragma``."""
+
+
+def _without_directives(idl: str) -> str:
+    """An IDL text with its preprocessor lines blanked, for rosbags' parser, which has none.
+
+    Every ``.idl`` file rosidl generates includes those of the types it uses
+    (``#include "builtin_interfaces/msg/Time.idl"``), and rosbag2 stores the files as they
+    are: rosbags refused each such definition as one it "could not parse", so a bag or MCAP
+    file of IDL-defined types was undecodable.  The included types are sections of the same
+    definition (or standard types), so the lines say nothing the reading needs.  Blanked,
+    not removed, so that a parse error's position still counts the file's lines.
+    """
+    return _DIRECTIVE.sub("", idl)
 
 
 def typestore_for(msgtype: str, encoding: str, text: str, *, ros1: bool, extra: Typedefs) -> Any:
