@@ -13,6 +13,7 @@ then from rosbags' standard ROS 1 (Noetic) or ROS 2 (latest LTS) definitions.
 from __future__ import annotations
 
 import re
+import weakref
 from collections import OrderedDict
 from pathlib import Path
 from typing import Any
@@ -272,7 +273,47 @@ def _build_typestore(msgtype: str, encoding: str, text: str, *, ros1: bool, extr
     problem = structure_problem(store.fielddefs, msgtype)
     if problem is not None:
         raise DefinitionError(problem)
-    return store
+    return store if ros1 else _octets_unsigned(store)
+
+
+_WRITTEN: weakref.WeakKeyDictionary[Any, Any] = weakref.WeakKeyDictionary()
+"""The store of each :func:`_octets_unsigned` store's definitions as written (``byte``)."""
+
+
+def _octets_unsigned(store: Any) -> Any:
+    """A store that decodes ROS 2's ``byte`` (IDL's ``octet``) as unsigned, as ROS 2 does.
+
+    ROS 2's ``byte`` is an octet, 0 to 255 (``unsigned char`` in C++, ``bytes`` in Python),
+    where ROS 1's is a deprecated ``int8``; rosbags decodes both as ``int8``, so a
+    ``std_msgs/msg/Byte`` of 200 read as -56, silently.  Its fields are registered as
+    ``uint8`` in a store of their own (``store`` unchanged when it has none); the type hash
+    (RIHS01) the bag's is compared with stays that of the definition as written
+    (:data:`_WRITTEN`, :func:`digest_problem`).
+    """
+    from rosbags.typesys import Stores, get_typestore
+
+    fields = [desc for _, defined in store.fielddefs.values() for _, desc in defined]
+    if not any(_unsigned(desc) != desc for desc in fields):
+        return store
+    decoding = get_typestore(Stores.EMPTY)
+    decoding.register(
+        {
+            name: (constants, [(field, _unsigned(desc)) for field, desc in defined])
+            for name, (constants, defined) in store.fielddefs.items()
+        }
+    )
+    _WRITTEN[decoding] = store
+    return decoding
+
+
+def _unsigned(desc: Any) -> Any:
+    """A field's description with ``byte`` elements made ``uint8`` (:func:`_octets_unsigned`)."""
+    node = int(desc[0])
+    if node == 1 and desc[1][0] == "byte":
+        return (desc[0], ("uint8", *desc[1][1:]))
+    if node in (3, 4):
+        return (desc[0], (_unsigned(desc[1][0]), *desc[1][1:]))
+    return desc
 
 
 def _message_type(desc: Any) -> str | None:
@@ -331,7 +372,8 @@ def digest_problem(
     if not digest or (not ros1 and not digest.startswith("RIHS01_")):
         return None
     try:
-        have = store.generate_msgdef(msgtype)[1] if ros1 else store.hash_rihs01(msgtype)
+        written = _WRITTEN.get(store, store)
+        have = written.generate_msgdef(msgtype)[1] if ros1 else written.hash_rihs01(msgtype)
     except Exception:  # a hash rosbags cannot compute is no evidence either way
         return None
     if have == digest:
