@@ -273,41 +273,57 @@ def _build_typestore(msgtype: str, encoding: str, text: str, *, ros1: bool, extr
     problem = structure_problem(store.fielddefs, msgtype)
     if problem is not None:
         raise DefinitionError(problem)
-    return store if ros1 else _octets_unsigned(store)
+    return _decoded_as_ros(store, ros1=ros1)
 
 
 _WRITTEN: weakref.WeakKeyDictionary[Any, Any] = weakref.WeakKeyDictionary()
-"""The store of each :func:`_octets_unsigned` store's definitions as written (``byte``)."""
+"""The store of each :func:`_decoded_as_ros` store's definitions as written."""
+
+_ROS1_TIMES = {
+    "builtin_interfaces/msg/Time": {"sec": "uint32"},
+    "builtin_interfaces/msg/Duration": {"nanosec": "int32"},
+}
+"""The fields of ROS 1's ``time`` and ``duration`` that rosbags decodes as ROS 2's, with
+ROS 1's types (``ros::Time``'s ``uint32_t sec``, ``ros::Duration``'s ``int32_t nsec``)."""
 
 
-def _octets_unsigned(store: Any) -> Any:
-    """A store that decodes ROS 2's ``byte`` (IDL's ``octet``) as unsigned, as ROS 2 does.
+def _decoded_as_ros(store: Any, *, ros1: bool) -> Any:
+    """A store that decodes the few primitive types rosbags reads otherwise than ROS does.
 
-    ROS 2's ``byte`` is an octet, 0 to 255 (``unsigned char`` in C++, ``bytes`` in Python),
-    where ROS 1's is a deprecated ``int8``; rosbags decodes both as ``int8``, so a
-    ``std_msgs/msg/Byte`` of 200 read as -56, silently.  Its fields are registered as
-    ``uint8`` in a store of their own (``store`` unchanged when it has none); the type hash
-    (RIHS01) the bag's is compared with stays that of the definition as written
-    (:data:`_WRITTEN`, :func:`digest_problem`).
+    - ROS 2's ``byte`` is an octet, 0 to 255 (``unsigned char`` in C++, ``bytes`` in
+      Python), where ROS 1's is a deprecated ``int8``; rosbags decodes both as ``int8``, so
+      a ``std_msgs/msg/Byte`` of 200 read as -56, silently.
+    - ROS 1's ``time`` holds its seconds in a ``uint32`` and ``duration`` its nanoseconds in
+      an ``int32``; rosbags reads them as ROS 2's ``Time`` and ``Duration`` (``int32``
+      seconds, ``uint32`` nanoseconds), so ``ros::TIME_MAX``'s seconds, or a stamp past
+      2038, read negative and a duration's -5 ns as 4294967291 ns.
+
+    Such fields are registered with ROS's types in a store of their own (``store`` itself
+    when it has none); the type hash (RIHS01 or MD5) the log's is compared with stays that
+    of the definition as written (:data:`_WRITTEN`, :func:`digest_problem`).
     """
-    from rosbags.typesys import Stores, get_typestore
+    from rosbags.typesys.store import Typestore
 
-    fields = [desc for _, defined in store.fielddefs.values() for _, desc in defined]
-    if not any(_unsigned(desc) != desc for desc in fields):
+    def as_ros(name: str, field: str, desc: Any) -> Any:
+        if not ros1:
+            return _unsigned(desc)
+        kind = _ROS1_TIMES.get(name, {}).get(field)
+        return desc if kind is None else (desc[0], (kind, *desc[1][1:]))
+
+    types = {
+        name: (constants, [(field, as_ros(name, field, desc)) for field, desc in defined])
+        for name, (constants, defined) in store.fielddefs.items()
+    }
+    if all(types[name][1] == list(defined) for name, (_, defined) in store.fielddefs.items()):
         return store
-    decoding = get_typestore(Stores.EMPTY)
-    decoding.register(
-        {
-            name: (constants, [(field, _unsigned(desc)) for field, desc in defined])
-            for name, (constants, defined) in store.fielddefs.items()
-        }
-    )
+    decoding = Typestore()  # not get_typestore(Stores.EMPTY): it holds ROS 2's Time
+    decoding.register(types)
     _WRITTEN[decoding] = store
     return decoding
 
 
 def _unsigned(desc: Any) -> Any:
-    """A field's description with ``byte`` elements made ``uint8`` (:func:`_octets_unsigned`)."""
+    """A field's description with ``byte`` elements made ``uint8`` (:func:`_decoded_as_ros`)."""
     node = int(desc[0])
     if node == 1 and desc[1][0] == "byte":
         return (desc[0], ("uint8", *desc[1][1:]))
