@@ -169,6 +169,9 @@ def parse_definition(msgtype: str, encoding: str, text: str) -> dict[str, Any]:
     from rosbags.typesys import TypesysError, get_types_from_idl, get_types_from_msg
 
     types: dict[str, Any] = {}
+    # Lines as a text-mode read gives them (as --msg-dir files are read): a .msg file saved
+    # with Windows line ends is stored so by ROS's recorders, and rosbags parses none of it.
+    text = text.replace("\r\n", "\n").replace("\r", "\n")
     try:
         if encoding == "msg":
             types.update(get_types_from_msg(text, msgtype))
