@@ -94,7 +94,8 @@ def types_from_msg_dirs(folders: tuple[str, ...]) -> dict[str, Any]:
             package = parent.parent.name if parent.name == "msg" else parent.name
             name = f"{package}/msg/{file.stem}"
             try:
-                types.update(get_types_from_msg(file.read_text(encoding="utf-8"), name))
+                # utf-8-sig: a byte-order mark (Windows Notepad writes one) is no text of it
+                types.update(get_types_from_msg(file.read_text(encoding="utf-8-sig"), name))
             except (TypesysError, UnicodeDecodeError, OSError) as err:
                 raise LogError(
                     f"{file}: not a readable message definition ({first_line(err)})"
