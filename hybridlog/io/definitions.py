@@ -12,6 +12,8 @@ then from rosbags' standard ROS 1 (Noetic) or ROS 2 (latest LTS) definitions.
 
 from __future__ import annotations
 
+import re
+import weakref
 from collections import OrderedDict
 from pathlib import Path
 from typing import Any
@@ -92,7 +94,8 @@ def types_from_msg_dirs(folders: tuple[str, ...]) -> dict[str, Any]:
             package = parent.parent.name if parent.name == "msg" else parent.name
             name = f"{package}/msg/{file.stem}"
             try:
-                types.update(get_types_from_msg(file.read_text(encoding="utf-8"), name))
+                # utf-8-sig: a byte-order mark (Windows Notepad writes one) is no text of it
+                types.update(get_types_from_msg(file.read_text(encoding="utf-8-sig"), name))
             except (TypesysError, UnicodeDecodeError, OSError) as err:
                 raise LogError(
                     f"{file}: not a readable message definition ({first_line(err)})"
@@ -167,6 +170,9 @@ def parse_definition(msgtype: str, encoding: str, text: str) -> dict[str, Any]:
     from rosbags.typesys import TypesysError, get_types_from_idl, get_types_from_msg
 
     types: dict[str, Any] = {}
+    # Lines as a text-mode read gives them (as --msg-dir files are read): a .msg file saved
+    # with Windows line ends is stored so by ROS's recorders, and rosbags parses none of it.
+    text = text.replace("\r\n", "\n").replace("\r", "\n")
     try:
         if encoding == "msg":
             types.update(get_types_from_msg(text, msgtype))
@@ -174,12 +180,29 @@ def parse_definition(msgtype: str, encoding: str, text: str) -> dict[str, Any]:
             parts = text.split(_IDL_SEPARATOR)[1:] if text.startswith(_IDL_SEPARATOR) else [text]
             for part in parts:
                 idl = part.split("\n", 1)[1] if part.startswith("IDL: ") else part
-                types.update(get_types_from_idl(idl))
+                types.update(get_types_from_idl(_without_directives(idl)))
     except (TypesysError, ValueError, KeyError, IndexError, AttributeError, TypeError) as err:
         raise DefinitionError(
             f"its stored message definition cannot be parsed ({library_reason(err)})"
         ) from err
     return types
+
+
+_DIRECTIVE = re.compile(r"^[ \t]*#[^\n]*", re.MULTILINE)
+"""A preprocessor line of an IDL file: ``#include "std_msgs/msg/Header.idl"``, ``#pragma``."""
+
+
+def _without_directives(idl: str) -> str:
+    """An IDL text with its preprocessor lines blanked, for rosbags' parser, which has none.
+
+    Every ``.idl`` file rosidl generates includes those of the types it uses
+    (``#include "builtin_interfaces/msg/Time.idl"``), and rosbag2 stores the files as they
+    are: rosbags refused each such definition as one it "could not parse", so a bag or MCAP
+    file of IDL-defined types was undecodable.  The included types are sections of the same
+    definition (or standard types), so the lines say nothing the reading needs.  Blanked,
+    not removed, so that a parse error's position still counts the file's lines.
+    """
+    return _DIRECTIVE.sub("", idl)
 
 
 def typestore_for(msgtype: str, encoding: str, text: str, *, ros1: bool, extra: Typedefs) -> Any:
@@ -254,7 +277,63 @@ def _build_typestore(msgtype: str, encoding: str, text: str, *, ros1: bool, extr
     problem = structure_problem(store.fielddefs, msgtype)
     if problem is not None:
         raise DefinitionError(problem)
-    return store
+    return _decoded_as_ros(store, ros1=ros1)
+
+
+_WRITTEN: weakref.WeakKeyDictionary[Any, Any] = weakref.WeakKeyDictionary()
+"""The store of each :func:`_decoded_as_ros` store's definitions as written."""
+
+_ROS1_TIMES = {
+    "builtin_interfaces/msg/Time": {"sec": "uint32"},
+    "builtin_interfaces/msg/Duration": {"nanosec": "int32"},
+}
+"""The fields of ROS 1's ``time`` and ``duration`` that rosbags decodes as ROS 2's, with
+ROS 1's types (``ros::Time``'s ``uint32_t sec``, ``ros::Duration``'s ``int32_t nsec``)."""
+
+
+def _decoded_as_ros(store: Any, *, ros1: bool) -> Any:
+    """A store that decodes the few primitive types rosbags reads otherwise than ROS does.
+
+    - ROS 2's ``byte`` is an octet, 0 to 255 (``unsigned char`` in C++, ``bytes`` in
+      Python), where ROS 1's is a deprecated ``int8``; rosbags decodes both as ``int8``, so
+      a ``std_msgs/msg/Byte`` of 200 read as -56, silently.
+    - ROS 1's ``time`` holds its seconds in a ``uint32`` and ``duration`` its nanoseconds in
+      an ``int32``; rosbags reads them as ROS 2's ``Time`` and ``Duration`` (``int32``
+      seconds, ``uint32`` nanoseconds), so ``ros::TIME_MAX``'s seconds, or a stamp past
+      2038, read negative and a duration's -5 ns as 4294967291 ns.
+
+    Such fields are registered with ROS's types in a store of their own (``store`` itself
+    when it has none); the type hash (RIHS01 or MD5) the log's is compared with stays that
+    of the definition as written (:data:`_WRITTEN`, :func:`digest_problem`).
+    """
+    from rosbags.typesys.store import Typestore
+
+    def as_ros(name: str, field: str, desc: Any) -> Any:
+        if not ros1:
+            return _unsigned(desc)
+        kind = _ROS1_TIMES.get(name, {}).get(field)
+        return desc if kind is None else (desc[0], (kind, *desc[1][1:]))
+
+    types = {
+        name: (constants, [(field, as_ros(name, field, desc)) for field, desc in defined])
+        for name, (constants, defined) in store.fielddefs.items()
+    }
+    if all(types[name][1] == list(defined) for name, (_, defined) in store.fielddefs.items()):
+        return store
+    decoding = Typestore()  # not get_typestore(Stores.EMPTY): it holds ROS 2's Time
+    decoding.register(types)
+    _WRITTEN[decoding] = store
+    return decoding
+
+
+def _unsigned(desc: Any) -> Any:
+    """A field's description with ``byte`` elements made ``uint8`` (:func:`_decoded_as_ros`)."""
+    node = int(desc[0])
+    if node == 1 and desc[1][0] == "byte":
+        return (desc[0], ("uint8", *desc[1][1:]))
+    if node in (3, 4):
+        return (desc[0], (_unsigned(desc[1][0]), *desc[1][1:]))
+    return desc
 
 
 def _message_type(desc: Any) -> str | None:
@@ -313,7 +392,8 @@ def digest_problem(
     if not digest or (not ros1 and not digest.startswith("RIHS01_")):
         return None
     try:
-        have = store.generate_msgdef(msgtype)[1] if ros1 else store.hash_rihs01(msgtype)
+        written = _WRITTEN.get(store, store)
+        have = written.generate_msgdef(msgtype)[1] if ros1 else written.hash_rihs01(msgtype)
     except Exception:  # a hash rosbags cannot compute is no evidence either way
         return None
     if have == digest:

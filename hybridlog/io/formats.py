@@ -40,6 +40,7 @@ from __future__ import annotations
 import errno
 import importlib
 import os
+import re
 import stat
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -355,6 +356,13 @@ def log_format(path: str | os.PathLike[str]) -> LogFormat:
         if content.misnamed and suffix not in content.suffixes:
             raise LogError(f"{shown}: {content.misnamed}")
         return content
+    version = _older_bag_version(file)
+    if version is not None:
+        raise LogError(
+            f"{shown}: a ROS 1 bag of format version {version}, which hybridlog does not read "
+            f"(rosbags reads version 2.0, the one rosbag record writes); ROS 1's "
+            f"`rosbag filter {file.name} new.bag True` rewrites it as version 2.0"
+        )
     named = next((f for f in FORMATS if not f.directory and suffix in f.suffixes), None)
     if named is None:
         raise LogError(
@@ -364,6 +372,25 @@ def log_format(path: str | os.PathLike[str]) -> LogFormat:
     if named.magic:
         raise LogError(f"{shown}: not {named.what} (wrong magic bytes)")
     return named
+
+
+_BAG_VERSION_LINE = re.compile(rb"#ROSBAG V(\d{1,3}\.\d{1,3})\n")
+"""The first line of a ROS 1 bag of any format version (``#ROSBAG V1.2``)."""
+
+
+def _older_bag_version(file: Path) -> str | None:
+    """The format version of a ROS 1 bag other than 2.0 (``"1.2"``), or ``None``.
+
+    Such a bag (format 1.2, of ROS's first releases) failed the ``#ROSBAG V2.0`` magic bytes
+    and was refused as "not a ROS 1 bag (wrong magic bytes)", which it is.
+    """
+    try:
+        with file.open("rb") as handle:
+            head = handle.read(len("#ROSBAG V123.123\n"))
+    except OSError:
+        return None
+    found = _BAG_VERSION_LINE.match(head)
+    return None if found is None else found.group(1).decode("ascii")
 
 
 def _file_mode(file: Path, shown: str) -> int:

@@ -204,6 +204,20 @@ def summary_problem(summary: Any) -> str | None:
     return None
 
 
+def _type_name(schema: Any) -> str:
+    """The type a schema names, as rosbags names the types it parses (``pkg/msg/Name``).
+
+    An ``omgidl`` schema names its type as IDL does, by its modules, ``foo::Point`` (the
+    MCAP specification's form): rosbags names the struct of ``module foo { struct Point }``
+    ``foo/Point``, so the name was "not its type" and every such topic undecodable.  A
+    ``ros1msg`` name, ``std_msgs/Float64``, is ROS 2's ``std_msgs/msg/Float64``.
+    """
+    name = str(schema.name)
+    if schema.encoding == "omgidl":
+        return name.removeprefix("::").replace("::", "/")
+    return normal_type(name)
+
+
 _ROSBAGS_SCHEMAS = frozenset({"ros2msg", "ros2idl", "omgidl", ""})
 """Schema encodings rosbags' MCAP storage reader takes (any other refuses the whole file)."""
 
@@ -651,7 +665,7 @@ class McapSource(MessageSource):
 
     def _topic(self, name: str, channel: Any, schema: Any, count: int | None) -> Topic:
         encoding = channel.message_encoding
-        msgtype = normal_type(schema.name) if schema is not None else ""
+        msgtype = _type_name(schema) if schema is not None else ""
         topic = Topic(name, msgtype, encoding, count)
         if encoding == "json":
             topic.decode = _decode_json
