@@ -65,19 +65,26 @@ def set_up() -> None:
     is made to fail fast here, where SciPy is not loaded yet: for the moment of the set-up
     that one module is marked missing (``sys.modules[name] = None``).  Nothing else is
     importing it meanwhile: the readers running beside ``analyze``'s set-up use no SciPy.
+
+    The refresh runs under numba's compiler lock, as numba's own compiler runs it: the
+    target's registries are generators that two threads cannot advance at once, and two
+    analyses started in threads of one process each set numba up ("generator already
+    executing" from the second).
     """
     _numba()
+    from numba.core.compiler_lock import global_compiler_lock
     from numba.core.registry import cpu_target
 
-    probe_skipped = "scipy.linalg" not in sys.modules and BLAS_PROBE not in sys.modules
-    if probe_skipped:
-        sys.modules[BLAS_PROBE] = None  # type: ignore[assignment]
-    try:
-        cpu_target.typing_context.refresh()
-        cpu_target.target_context.refresh()
-    finally:
-        if probe_skipped and sys.modules.get(BLAS_PROBE, 0) is None:
-            del sys.modules[BLAS_PROBE]
+    with global_compiler_lock:
+        probe_skipped = "scipy.linalg" not in sys.modules and BLAS_PROBE not in sys.modules
+        if probe_skipped:
+            sys.modules[BLAS_PROBE] = None  # type: ignore[assignment]
+        try:
+            cpu_target.typing_context.refresh()
+            cpu_target.target_context.refresh()
+        finally:
+            if probe_skipped and sys.modules.get(BLAS_PROBE, 0) is None:
+                del sys.modules[BLAS_PROBE]
 
 
 def jit(function: F, **options: Any) -> F:

@@ -47,6 +47,37 @@ def test_set_up_skips_the_blas_probe_and_blas_kernels_still_compile() -> None:
     assert done.stdout.split() == ["False", "True", "5.0"]
 
 
+SET_UP_IN_THREADS = """
+import sys
+import threading
+from hybridlog.jit import set_up
+sys.setswitchinterval(1e-6)  # switch threads as often as can be, inside numba's refresh
+start = threading.Barrier(8)
+errors = []
+def each():
+    start.wait()
+    try:
+        set_up()
+    except Exception as error:
+        errors.append(repr(error))
+threads = [threading.Thread(target=each) for _ in range(8)]
+for thread in threads:
+    thread.start()
+for thread in threads:
+    thread.join()
+print(errors)
+"""
+
+
+def test_set_up_in_threads_at_once() -> None:
+    # two analyses started in threads of one process each set numba up: the refresh
+    # advanced numba's registry generators from two threads, "generator already executing"
+    done = subprocess.run(
+        [sys.executable, "-c", SET_UP_IN_THREADS], capture_output=True, text=True, check=True
+    )
+    assert done.stdout.strip() == "[]"
+
+
 def test_set_up_compiles_nothing() -> None:
     # a batch's workers wait for it in their forkserver: compiling a one-line function
     # there took 0.03 s, which loading the filters' cached code did not need
