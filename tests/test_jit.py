@@ -144,6 +144,25 @@ def test_machine_code_of_changed_code_is_never_loaded(tmp_path: Path) -> None:
     assert len(folders) == 2 and all(len(name) == 16 for name in folders)
 
 
+def test_a_damaged_index_of_a_function_compiled_on_first_call_is_compiled_again(
+    tmp_path: Path,
+) -> None:
+    # numba's loader, not compile_signature, reads the index (.nbi) of a function jit()
+    # compiles on its first call: one damaged failed every later run with "pickle data was
+    # truncated" (an analyze from the IMM's result check on)
+    code = tmp_path / "code"
+    environment = _environment(tmp_path)
+    _code(code, 1)
+    assert _run(code, environment) == "2"
+    indexes = list((tmp_path / "cache" / "numba").glob("*/*/*.nbi"))
+    assert len(indexes) == 2, indexes  # caller.twice and callee.value
+    for index in indexes:
+        index.write_bytes(b"damaged")
+    assert _run(code, environment) == "2"
+    assert _run(code, environment) == "2"  # the indexes written anew, and read
+    assert all(index.stat().st_size > len(b"damaged") for index in indexes)
+
+
 def test_machine_code_is_cached_where_the_code_and_home_cannot_be_written(
     tmp_path: Path,
 ) -> None:
