@@ -653,3 +653,15 @@ def test_a_model_of_many_modes_runs_on_the_compiled_loops(name: str, sets: dict[
     signals = simulate(model, steps=60, seed=1).signals(model)
     result = prepare(model, name, sets).run(model, signals)
     assert result.n_samples == signals.n_samples and np.isfinite(result.state_means).all()
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_a_log_of_no_sample_is_an_empty_result_or_a_one_line_error(name, cases):
+    # sliding-mode and unknown-mode indexed the first row: IndexError from Prepared.run
+    model, signals = cases[model_for(name)]
+    try:
+        result = prepare(model, name).run(model, signals.rows(0, 0))
+    except HybridlogError as error:
+        assert "\n" not in str(error)
+    else:
+        assert result.modes.shape == (0,) and result.state_means.shape == (0, model.n_states)
