@@ -513,6 +513,10 @@ class Prepared:
     def run(self, model: HybridModel, signals: AlignedSignals, **inputs: Any) -> EstimationResult:
         """Run over the aligned log (checked first for what the estimator needs of a log).
 
+        The signals are taken through :meth:`AlignedSignals.checked
+        <hybridlog.signals.AlignedSignals.checked>` (lists and read-only arrays converted,
+        an input or output that is not finite a ``LogError``), by :meth:`stream` too.
+
         ``inputs`` are the parsed files the options name (``centers=``), read by the job:
         estimators read no file.  A result with an offline pass carries the outputs its
         estimates explain (:func:`~hybridlog.estimators.explained.with_explained_outputs`).
@@ -520,6 +524,7 @@ class Prepared:
         from hybridlog.estimators.explained import with_explained_outputs  # numpy: not at start-up
         from hybridlog.estimators.vouch import check_explained
 
+        signals = signals.checked()
         result = with_explained_outputs(model, self._whole(model, signals, inputs), signals)
         check_explained(model, signals, result)
         return result
@@ -725,6 +730,7 @@ class Prepared:
         while the report takes the one before.  :meth:`streamed` says whether the
         estimator itself streams (its memory is then a chunk's).
         """
+        signals = signals.checked()
         if not self.estimator.stream or self.offline or self.moves_modes(model):
             return self._in_chunks(model, signals, self._whole(model, signals, inputs), rows)
         self.check_signals(model, signals)

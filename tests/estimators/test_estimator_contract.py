@@ -665,3 +665,47 @@ def test_a_log_of_no_sample_is_an_empty_result_or_a_one_line_error(name, cases):
         assert "\n" not in str(error)
     else:
         assert result.modes.shape == (0,) and result.state_means.shape == (0, model.n_states)
+
+
+def _given_as(signals, kind):
+    """``signals`` with inputs and outputs as a caller of the library may hold them."""
+    if kind == "lists":
+        return dataclasses.replace(
+            signals, inputs=signals.inputs.tolist(), outputs=signals.outputs.tolist()
+        )
+    if kind == "strided":  # every other row of arrays twice as long, in Fortran order
+        return dataclasses.replace(
+            signals,
+            inputs=np.asfortranarray(np.repeat(signals.inputs, 2, axis=0))[::2],
+            outputs=np.asfortranarray(np.repeat(signals.outputs, 2, axis=0))[::2],
+        )
+    inputs, outputs = signals.inputs.copy(), signals.outputs.copy()
+    inputs.flags.writeable = outputs.flags.writeable = False
+    return dataclasses.replace(signals, inputs=inputs, outputs=outputs)
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_signals_as_lists_strided_or_read_only_arrays_give_the_same_result(name, cases, runs):
+    # chiu and kmeans took a list for an array (AttributeError), sliding-mode's compiled
+    # code refused a read-only array (numba's TypeError)
+    model, signals = cases[model_for(name)]
+    prepared, result, _ = runs[name]
+    for kind in ("lists", "strided", "read-only"):
+        given = prepared.run(model, _given_as(signals, kind))
+        np.testing.assert_array_equal(given.modes, result.modes, err_msg=kind)
+        np.testing.assert_array_equal(given.state_means, result.state_means, err_msg=kind)
+    if ESTIMATORS[name].capabilities.supports_smoothing:  # the offline pass reads them too
+        smoothed = prepare(model, name, {"smooth": True})
+        listed = smoothed.run(model, _given_as(signals, "lists"))
+        np.testing.assert_array_equal(listed.modes, smoothed.run(model, signals).modes)
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_an_input_or_output_that_is_not_finite_is_a_log_error_naming_it(name, cases):
+    # kmeans let SciPy's "array must not contain infs or NaNs" through; the filters called
+    # it a divergence of their own
+    model, signals = cases[model_for(name)]
+    outputs = signals.outputs.copy()
+    outputs[5, 0] = np.nan
+    with pytest.raises(LogError, match=rf"outputs: {model.outputs[0]} = nan at t = .* \(row 5\)"):
+        prepare(model, name).run(model, dataclasses.replace(signals, outputs=outputs))
