@@ -703,7 +703,20 @@ class Prepared:
         ``analyze``, ``compare`` (for every estimator) and each log of a batch once the log
         is read, before any estimator runs: a log without the switching signal or a command
         of the last estimator named was refused after the others had run, their work lost.
+        Signals aligned for another model (other inputs or outputs, or in another order) are
+        refused too: the compiled loops index the model's columns without bounds checks,
+        and gave a result read from the wrong columns or past the arrays.
         """
+        for kind, held, named in (
+            ("inputs", signals.input_names, model.inputs),
+            ("outputs", signals.output_names, model.outputs),
+        ):
+            if tuple(held) != tuple(named):
+                raise LogError(
+                    f"{signals.source}: the signals hold the {kind} {', '.join(held) or 'none'}, "
+                    f"where model {model.origin or model.name} has {', '.join(named) or 'none'} "
+                    "(signals aligned for another model: load_signals(path, SignalSpec.of(model)))"
+                )
         problem = self.estimator.capabilities.signals_mismatch(model, signals)
         if problem is not None:
             raise LogError(f"{signals.source}: estimator '{self.name}' {problem}")

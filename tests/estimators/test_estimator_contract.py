@@ -709,3 +709,14 @@ def test_an_input_or_output_that_is_not_finite_is_a_log_error_naming_it(name, ca
     outputs[5, 0] = np.nan
     with pytest.raises(LogError, match=rf"outputs: {model.outputs[0]} = nan at t = .* \(row 5\)"):
         prepare(model, name).run(model, dataclasses.replace(signals, outputs=outputs))
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_signals_aligned_for_another_model_are_refused(name, cases):
+    # imm of the three-tank model ran on the double cart's signals (outputs y for y1, y2,
+    # y3): its compiled loop read three columns of a one-column array and gave a result
+    model, _ = cases[model_for(name)]
+    other = "three_tank_hstf" if model_for(name) == "double_cart_case1" else "double_cart_case1"
+    _, signals = cases[other]
+    with pytest.raises(LogError, match="signals aligned for another model"):
+        prepare(model, name).run(model, signals)
