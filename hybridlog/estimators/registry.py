@@ -875,6 +875,11 @@ class Prepared:
         return options_dict(self.options)
 
 
+def _kind(value: object) -> str:
+    """``value``'s type and an excerpt of it, for a refusal of an argument's type."""
+    return f"{type(value).__name__} {excerpt(value)}"
+
+
 def prepare(
     model: HybridModel,
     name: str | None,
@@ -907,8 +912,19 @@ def prepare(
         ``[estimators.<x>]`` table), gives a bad option value, or the model lacks what the
         estimator needs (one line naming the file, the key and the estimator).
     OptionError
-        An unknown estimator name or a bad override (naming ``given_by``/``overrides_by``).
+        An unknown estimator name or a bad override (naming ``given_by``/``overrides_by``);
+        a ``name`` that is not a ``str``, or ``overrides`` not a mapping of option names
+        (``["smooth=true"]``: ``{"smooth": "true"}``), named by type.
     """
+    if name is not None and not isinstance(name, str):
+        raise OptionError(f"{given_by}: expected an estimator's name, got the {_kind(name)}")
+    if overrides is not None and not (
+        isinstance(overrides, Mapping) and all(isinstance(k, str) for k in overrides)
+    ):
+        raise OptionError(
+            f"{overrides_by}: expected a mapping of option names to values, "
+            f"got the {_kind(overrides)}"
+        )
     estimator = resolve_estimator(model, name, given_by=given_by)
     unwritten = name is None and model.default_estimator is None
     what = (

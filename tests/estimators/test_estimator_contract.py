@@ -720,3 +720,18 @@ def test_signals_aligned_for_another_model_are_refused(name, cases):
     _, signals = cases[other]
     with pytest.raises(LogError, match="signals aligned for another model"):
         prepare(model, name).run(model, signals)
+
+
+@pytest.mark.parametrize(
+    ("name", "overrides", "shown"),
+    [
+        (3, None, "--estimator: expected an estimator's name, got the int '3'"),
+        ("imm", ["smooth=true"], r"--set: expected a mapping .* got the list '\['smooth=true'\]'"),
+        ("imm", {1: "x"}, "--set: expected a mapping of option names to values, got the dict"),
+    ],
+)
+def test_prepare_refuses_arguments_of_the_wrong_type(name, overrides, shown, cases):
+    # AttributeError: 'int' object has no attribute 'casefold', 'list' ... no attribute 'items'
+    model, _ = cases["three_tank_hstf"]
+    with pytest.raises(OptionError, match=shown):
+        prepare(model, name, overrides)
