@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import io
 import os
 import pickle
 import re
@@ -65,19 +66,26 @@ def set_up() -> None:
     is made to fail fast here, where SciPy is not loaded yet: for the moment of the set-up
     that one module is marked missing (``sys.modules[name] = None``).  Nothing else is
     importing it meanwhile: the readers running beside ``analyze``'s set-up use no SciPy.
+
+    The refresh runs under numba's compiler lock, as numba's own compiler runs it: the
+    target's registries are generators that two threads cannot advance at once, and two
+    analyses started in threads of one process each set numba up ("generator already
+    executing" from the second).
     """
     _numba()
+    from numba.core.compiler_lock import global_compiler_lock
     from numba.core.registry import cpu_target
 
-    probe_skipped = "scipy.linalg" not in sys.modules and BLAS_PROBE not in sys.modules
-    if probe_skipped:
-        sys.modules[BLAS_PROBE] = None  # type: ignore[assignment]
-    try:
-        cpu_target.typing_context.refresh()
-        cpu_target.target_context.refresh()
-    finally:
-        if probe_skipped and sys.modules.get(BLAS_PROBE, 0) is None:
-            del sys.modules[BLAS_PROBE]
+    with global_compiler_lock:
+        probe_skipped = "scipy.linalg" not in sys.modules and BLAS_PROBE not in sys.modules
+        if probe_skipped:
+            sys.modules[BLAS_PROBE] = None  # type: ignore[assignment]
+        try:
+            cpu_target.typing_context.refresh()
+            cpu_target.target_context.refresh()
+        finally:
+            if probe_skipped and sys.modules.get(BLAS_PROBE, 0) is None:
+                del sys.modules[BLAS_PROBE]
 
 
 def jit(function: F, **options: Any) -> F:
@@ -386,13 +394,20 @@ def _check_entries(folder: Path) -> None:
     failed every later run with "LLVM bitcode parsing error", or, where it still parsed,
     ran changed code.  An entry whose digest differs is :class:`DamagedEntryError`, an
     ``OSError``, which numba's loader takes for a missing file: the function is compiled
-    again and the entry written anew.  Entries outside ``folder`` (other programs' numba
-    caches) keep numba's format.
+    again and the entry written anew.  A function's index (its ``.nbi`` file, which names
+    the entries of each signature) is written with its digest too, and one that differs
+    read as empty, as numba reads the index of another numba version: a damaged index
+    failed every later run of a function :func:`jit` compiles on its first call (numba's
+    loader, not :func:`compile_signature`, reads it) with "pickle data was truncated", and
+    its saves too.  Entries outside ``folder`` (other programs' numba caches) keep numba's
+    format.
     """
     from numba.core.caching import IndexDataCacheFile
 
     save: Callable[[Any, str, Any], None] = IndexDataCacheFile._save_data
     load: Callable[[Any, str], Any] = IndexDataCacheFile._load_data
+    save_index: Callable[[Any, Any], None] = IndexDataCacheFile._save_index
+    load_index: Callable[[Any], Any] = IndexDataCacheFile._load_index
     root = os.path.abspath(folder)
 
     def ours(cache_file: Any) -> bool:
@@ -419,8 +434,35 @@ def _check_entries(folder: Path) -> None:
             raise DamagedEntryError(f"{path}: not the bytes written")
         return pickle.loads(blob)
 
+    def save_index_data(self: Any, overloads: Any) -> None:
+        if not ours(self):
+            return save_index(self, overloads)
+        blob = pickle.dumps(self._version, protocol=-1)
+        blob += self._dump((self._source_stamp, overloads))
+        with self._open_for_write(self._index_path) as file:
+            file.write(hashlib.sha256(blob).digest() + blob)
+
+    def load_index_data(self: Any) -> Any:
+        if not ours(self):
+            return load_index(self)
+        try:
+            with open(self._index_path, "rb") as file:
+                stored = file.read()
+        except FileNotFoundError:
+            return {}
+        digest, blob = stored[:_DIGEST_BYTES], stored[_DIGEST_BYTES:]
+        if hashlib.sha256(blob).digest() != digest:
+            return {}  # damaged: compiled again, and the index written anew
+        with io.BytesIO(blob) as stream:
+            if pickle.load(stream) != self._version:
+                return {}
+            stamp, overloads = pickle.loads(stream.read())
+        return overloads if stamp == self._source_stamp else {}
+
     IndexDataCacheFile._save_data = save_data  # type: ignore[method-assign]
     IndexDataCacheFile._load_data = load_data  # type: ignore[method-assign]
+    IndexDataCacheFile._save_index = save_index_data  # type: ignore[method-assign]
+    IndexDataCacheFile._load_index = load_index_data  # type: ignore[method-assign]
 
 
 _DIGEST_BYTES = hashlib.sha256().digest_size

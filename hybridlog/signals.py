@@ -190,6 +190,49 @@ class AlignedSignals:
             ),
         )
 
+    def checked(self) -> AlignedSignals:
+        """The signals as the estimators take them, or a one-line refusal.
+
+        ``time``, ``inputs`` and ``outputs`` as float64, C-contiguous and writable arrays of
+        consistent shapes, the inputs and outputs finite: what
+        :func:`hybridlog.io.load_signals` and :meth:`SimulatedLog.signals
+        <hybridlog.simulate.SimulatedLog.signals>` give already (returned as they are, no
+        copy).  Signals built by hand from lists, frames, float32, integer, strided or
+        read-only arrays are converted (copied where needed): a read-only array had raised
+        numba's ``TypeError`` from a compiled estimator, a list an ``AttributeError``, a NaN
+        SciPy's ``ValueError``.  An output the log did not measure is marked in
+        ``unmeasured_outputs``, with a stand-in value in ``outputs``, never a NaN there.
+
+        Raises
+        ------
+        LogError
+            An array that is not numbers or of the wrong shape, or an input or output that
+            is not finite (naming ``source``, the symbol, the row and its time).
+        """
+        from hybridlog.errors import LogError
+
+        time, inputs, outputs = (
+            _float_rows(self.source, name, getattr(self, name))
+            for name in ("time", "inputs", "outputs")
+        )
+        if time.ndim != 1:
+            raise LogError(f"{self.source}: time: shape {time.shape}, not (N,)")
+        for name, values, names in (
+            ("inputs", inputs, self.input_names),
+            ("outputs", outputs, self.output_names),
+            ("unmeasured_outputs", self.unmeasured_outputs, self.output_names),
+        ):
+            if values is not None and np.shape(values) != (time.size, len(names)):
+                raise LogError(
+                    f"{self.source}: {name}: shape {np.shape(values)}, not "
+                    f"({time.size}, {len(names)}) for {time.size} samples of {len(names)} symbols"
+                )
+        _refuse_non_finite(self.source, "inputs", inputs, self.input_names, time)
+        _refuse_non_finite(self.source, "outputs", outputs, self.output_names, time)
+        if time is self.time and inputs is self.inputs and outputs is self.outputs:
+            return self
+        return replace(self, time=time, inputs=inputs, outputs=outputs)
+
     @property
     def measures_every_output(self) -> bool:
         """Whether the log measured every output at every row (no stand-in value)."""
@@ -206,3 +249,31 @@ class AlignedSignals:
         if self.unmeasured_outputs is None:
             return self.outputs
         return np.where(self.unmeasured_outputs, np.nan, self.outputs)
+
+
+def _float_rows(source: str, name: str, given: npt.ArrayLike) -> FloatArray:
+    """``given`` as a float64, C-contiguous and writable array (itself where it is one)."""
+    from hybridlog.errors import LogError
+
+    try:
+        return np.require(np.asarray(given), np.float64, ("C", "W"))
+    except (TypeError, ValueError) as err:
+        raise LogError(f"{source}: {name}: not an array of numbers ({err})") from err
+
+
+def _refuse_non_finite(
+    source: str, name: str, values: FloatArray, names: tuple[str, ...], time: FloatArray
+) -> None:
+    """Refuse the first value of ``values`` that is not finite, naming its symbol and time."""
+    if np.isfinite(values.sum()):  # no temporary: values below MAX_MAGNITUDE sum finite
+        return
+    rows, columns = np.nonzero(~np.isfinite(values))
+    if rows.size:
+        from hybridlog.errors import LogError
+        from hybridlog.times import format_time
+
+        row, column = int(rows[0]), int(columns[0])
+        raise LogError(
+            f"{source}: {name}: {names[column]} = {values[row, column]} at "
+            f"t = {format_time(float(time[row]))} s (row {row}) is not finite"
+        )

@@ -47,6 +47,37 @@ def test_set_up_skips_the_blas_probe_and_blas_kernels_still_compile() -> None:
     assert done.stdout.split() == ["False", "True", "5.0"]
 
 
+SET_UP_IN_THREADS = """
+import sys
+import threading
+from hybridlog.jit import set_up
+sys.setswitchinterval(1e-6)  # switch threads as often as can be, inside numba's refresh
+start = threading.Barrier(8)
+errors = []
+def each():
+    start.wait()
+    try:
+        set_up()
+    except Exception as error:
+        errors.append(repr(error))
+threads = [threading.Thread(target=each) for _ in range(8)]
+for thread in threads:
+    thread.start()
+for thread in threads:
+    thread.join()
+print(errors)
+"""
+
+
+def test_set_up_in_threads_at_once() -> None:
+    # two analyses started in threads of one process each set numba up: the refresh
+    # advanced numba's registry generators from two threads, "generator already executing"
+    done = subprocess.run(
+        [sys.executable, "-c", SET_UP_IN_THREADS], capture_output=True, text=True, check=True
+    )
+    assert done.stdout.strip() == "[]"
+
+
 def test_set_up_compiles_nothing() -> None:
     # a batch's workers wait for it in their forkserver: compiling a one-line function
     # there took 0.03 s, which loading the filters' cached code did not need
@@ -111,6 +142,25 @@ def test_machine_code_of_changed_code_is_never_loaded(tmp_path: Path) -> None:
     assert _run(code, environment) == "10"
     folders = sorted(p.name for p in (tmp_path / "cache" / "numba").iterdir())
     assert len(folders) == 2 and all(len(name) == 16 for name in folders)
+
+
+def test_a_damaged_index_of_a_function_compiled_on_first_call_is_compiled_again(
+    tmp_path: Path,
+) -> None:
+    # numba's loader, not compile_signature, reads the index (.nbi) of a function jit()
+    # compiles on its first call: one damaged failed every later run with "pickle data was
+    # truncated" (an analyze from the IMM's result check on)
+    code = tmp_path / "code"
+    environment = _environment(tmp_path)
+    _code(code, 1)
+    assert _run(code, environment) == "2"
+    indexes = list((tmp_path / "cache" / "numba").glob("*/*/*.nbi"))
+    assert len(indexes) == 2, indexes  # caller.twice and callee.value
+    for index in indexes:
+        index.write_bytes(b"damaged")
+    assert _run(code, environment) == "2"
+    assert _run(code, environment) == "2"  # the indexes written anew, and read
+    assert all(index.stat().st_size > len(b"damaged") for index in indexes)
 
 
 def test_machine_code_is_cached_where_the_code_and_home_cannot_be_written(

@@ -513,6 +513,10 @@ class Prepared:
     def run(self, model: HybridModel, signals: AlignedSignals, **inputs: Any) -> EstimationResult:
         """Run over the aligned log (checked first for what the estimator needs of a log).
 
+        The signals are taken through :meth:`AlignedSignals.checked
+        <hybridlog.signals.AlignedSignals.checked>` (lists and read-only arrays converted,
+        an input or output that is not finite a ``LogError``), by :meth:`stream` too.
+
         ``inputs`` are the parsed files the options name (``centers=``), read by the job:
         estimators read no file.  A result with an offline pass carries the outputs its
         estimates explain (:func:`~hybridlog.estimators.explained.with_explained_outputs`).
@@ -520,6 +524,7 @@ class Prepared:
         from hybridlog.estimators.explained import with_explained_outputs  # numpy: not at start-up
         from hybridlog.estimators.vouch import check_explained
 
+        signals = signals.checked()
         result = with_explained_outputs(model, self._whole(model, signals, inputs), signals)
         check_explained(model, signals, result)
         return result
@@ -698,7 +703,20 @@ class Prepared:
         ``analyze``, ``compare`` (for every estimator) and each log of a batch once the log
         is read, before any estimator runs: a log without the switching signal or a command
         of the last estimator named was refused after the others had run, their work lost.
+        Signals aligned for another model (other inputs or outputs, or in another order) are
+        refused too: the compiled loops index the model's columns without bounds checks,
+        and gave a result read from the wrong columns or past the arrays.
         """
+        for kind, held, named in (
+            ("inputs", signals.input_names, model.inputs),
+            ("outputs", signals.output_names, model.outputs),
+        ):
+            if tuple(held) != tuple(named):
+                raise LogError(
+                    f"{signals.source}: the signals hold the {kind} {', '.join(held) or 'none'}, "
+                    f"where model {model.origin or model.name} has {', '.join(named) or 'none'} "
+                    "(signals aligned for another model: load_signals(path, SignalSpec.of(model)))"
+                )
         problem = self.estimator.capabilities.signals_mismatch(model, signals)
         if problem is not None:
             raise LogError(f"{signals.source}: estimator '{self.name}' {problem}")
@@ -725,6 +743,7 @@ class Prepared:
         while the report takes the one before.  :meth:`streamed` says whether the
         estimator itself streams (its memory is then a chunk's).
         """
+        signals = signals.checked()
         if not self.estimator.stream or self.offline or self.moves_modes(model):
             return self._in_chunks(model, signals, self._whole(model, signals, inputs), rows)
         self.check_signals(model, signals)
@@ -856,6 +875,11 @@ class Prepared:
         return options_dict(self.options)
 
 
+def _kind(value: object) -> str:
+    """``value``'s type and an excerpt of it, for a refusal of an argument's type."""
+    return f"{type(value).__name__} {excerpt(value)}"
+
+
 def prepare(
     model: HybridModel,
     name: str | None,
@@ -888,8 +912,19 @@ def prepare(
         ``[estimators.<x>]`` table), gives a bad option value, or the model lacks what the
         estimator needs (one line naming the file, the key and the estimator).
     OptionError
-        An unknown estimator name or a bad override (naming ``given_by``/``overrides_by``).
+        An unknown estimator name or a bad override (naming ``given_by``/``overrides_by``);
+        a ``name`` that is not a ``str``, or ``overrides`` not a mapping of option names
+        (``["smooth=true"]``: ``{"smooth": "true"}``), named by type.
     """
+    if name is not None and not isinstance(name, str):
+        raise OptionError(f"{given_by}: expected an estimator's name, got the {_kind(name)}")
+    if overrides is not None and not (
+        isinstance(overrides, Mapping) and all(isinstance(k, str) for k in overrides)
+    ):
+        raise OptionError(
+            f"{overrides_by}: expected a mapping of option names to values, "
+            f"got the {_kind(overrides)}"
+        )
     estimator = resolve_estimator(model, name, given_by=given_by)
     unwritten = name is None and model.default_estimator is None
     what = (

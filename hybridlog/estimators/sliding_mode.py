@@ -531,7 +531,7 @@ def _refuse_no_reconstruction(
         Naming the model, the measured state and input of the first sample, and whether
         ``D`` is not finite or rank-deficient there.
     """
-    if deltas.shape[1] == 0 or not np.isnan(deltas).any(axis=1).all():
+    if 0 in deltas.shape or not np.isnan(deltas).any(axis=1).all():
         return
     x = np.ascontiguousarray(signals.outputs[0], dtype=np.float64)
     u = np.ascontiguousarray(signals.inputs[0], dtype=np.float64)

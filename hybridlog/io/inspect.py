@@ -11,7 +11,7 @@ from typing import Any
 from hybridlog.errors import as_text, excerpt, names_apart
 from hybridlog.io.formats import open_log
 from hybridlog.io.mcap_reader import UnfinishedLogError
-from hybridlog.io.options import ReadOptions
+from hybridlog.io.options import ReadOptions, log_arguments
 from hybridlog.times import format_duration, format_time
 
 
@@ -82,8 +82,10 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
     ------
     LogError
         When the file is missing, of an unsupported format, or unreadable.
+    OptionError
+        A ``path`` that is no path, or ``options`` that are no :class:`ReadOptions`.
     """
-    options = options or ReadOptions()
+    options = log_arguments(path, options)
     try:
         source = open_log(path, options)
     except UnfinishedLogError as err:

@@ -31,7 +31,7 @@ from hybridlog.io.mapping import (
     parse_maps,
     resolve_signal_map,
 )
-from hybridlog.io.options import ReadOptions
+from hybridlog.io.options import ReadOptions, log_arguments
 from hybridlog.io.source import NS_PER_S, FieldError, FieldKey, LabelSeries, Series, format_ns
 from hybridlog.io.time_grid import SignalsApartError, clock_tolerance_ns
 from hybridlog.signals import MAX_MAGNITUDE, AlignedSignals, IntArray
@@ -159,7 +159,8 @@ def check_read_options(spec: SignalSpec, options: ReadOptions) -> dict[str, str]
     Raises
     ------
     OptionError
-        For a malformed ``--map``, an unknown symbol, or an unusable ``dt``.
+        For a malformed ``--map``, an unknown symbol, or an unusable ``dt``; a ``path``
+        that is no path or ``options`` that are no :class:`ReadOptions`.
     """
     check_alignment_options(spec.dt, options.resample, options.max_gap)
     return parse_maps(
@@ -209,12 +210,13 @@ def load_signals(
     Raises
     ------
     OptionError
-        For a malformed ``--map``, an unknown symbol, or an unusable ``dt``.
+        For a malformed ``--map``, an unknown symbol, or an unusable ``dt``; a ``path``
+        that is no path or ``options`` that are no :class:`ReadOptions`.
     LogError
         For a missing or unreadable log, a missing field, a non-numeric, NaN, infinite or
         out-of-range value, time going backwards, an unknown true mode, or an over-long gap.
     """
-    options = options or ReadOptions()
+    options = log_arguments(path, options)
     parsed = check_read_options(spec, options)
     notes = notes if notes is not None else {}
     with open_log(path, options) as source:

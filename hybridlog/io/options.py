@@ -158,6 +158,33 @@ def _wrong(name: str, expected: str, value: object) -> OptionError:
     )
 
 
+def log_arguments(path: object, options: object) -> ReadOptions:
+    """``options`` of a reader's call on the log ``path``: a :class:`ReadOptions`, or the default.
+
+    For the library's callers of :func:`~hybridlog.io.load_signals` and
+    :func:`~hybridlog.io.inspect_log`, as ``jobs.arguments`` checks the jobs' arguments: a
+    ``None`` path raised Python's ``TypeError``, a dict of options an ``AttributeError``.
+
+    Raises
+    ------
+    OptionError
+        ``path`` is not a non-empty ``str`` or path, or ``options`` not a ``ReadOptions``.
+    """
+    if not isinstance(path, str | os.PathLike) or not os.fspath(path):
+        kind = type(path).__name__
+        raise OptionError(
+            f"log: expected a path (a str or pathlib.Path), got the {kind} {excerpt(path)}"
+        )
+    if options is None:
+        return ReadOptions()
+    if not isinstance(options, ReadOptions):
+        kind = type(options).__name__
+        raise OptionError(
+            f"read: expected a hybridlog.io.ReadOptions or None, got the {kind} {excerpt(options)}"
+        )
+    return options
+
+
 def _seconds(value: object) -> float:
     """``max_gap`` as a ``float``: a real number (a NumPy one too), not a ``bool``.
 

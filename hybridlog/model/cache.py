@@ -85,8 +85,22 @@ def load_model(
     ModelError
         The file is missing or unreadable, the name is no built-in, or the model is
         invalid (:func:`~hybridlog.model.loader.parse_model`); every message starts with
-        the file or built-in name.
+        the file or built-in name.  Also an argument of the wrong type: ``name_or_path``
+        not a non-empty ``str`` or path, ``parameters`` not a mapping of names (a
+        ``["A=140"]`` of ``--set`` texts: :func:`load_model_set` takes those).
     """
+    if not isinstance(name_or_path, str | os.PathLike) or not os.fspath(name_or_path):
+        raise ModelError(
+            "model: expected a built-in name or a model file's path (a non-empty str or "
+            f"pathlib.Path), got the {type(name_or_path).__name__} {excerpt(name_or_path)}"
+        )
+    if parameters is not None and not (
+        isinstance(parameters, Mapping) and all(isinstance(k, str) for k in parameters)
+    ):
+        raise ModelError(
+            f"{os.fspath(name_or_path)}: parameters: expected a mapping of parameter names to "
+            f"numbers, got the {type(parameters).__name__} {excerpt(parameters)}"
+        )
     path = model_file(name_or_path)
     if path is not None:
         try:

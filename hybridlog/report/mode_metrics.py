@@ -39,10 +39,26 @@ Switch = TypedDict("Switch", {"t": float, "from": str, "to": str})
 """One change of a mode sequence: at time ``t`` (first sample in the new mode)."""
 
 
-def _check_modes(modes: npt.ArrayLike, n_modes: int, name: str) -> IntArray:
-    arr = np.asarray(modes, dtype=np.int64)
+def _mode_indices(modes: npt.ArrayLike, name: str) -> IntArray:
+    """``modes`` as int64 mode indices, 1-D; a value that is no whole number refused.
+
+    A cast alone truncated a mode of 0.5 to 0 and took NaN for a large negative index (with
+    a warning), scoring a mode sequence read as floats (a CSV column with a gap) silently.
+    """
+    arr = np.asarray(modes)
     if arr.ndim != 1:
         raise ValueError(f"{name} must be 1-D; got {arr.ndim} dimensions")
+    if arr.dtype.kind not in "biu":
+        values = arr.astype(np.float64)
+        whole = np.isfinite(values) & (values == np.round(values))
+        if not whole.all():
+            k = int(np.argmin(whole))
+            raise ValueError(f"{name}: {float(values[k])} at sample {k} is not a mode index")
+    return np.asarray(arr, dtype=np.int64)  # no copy of int64 indices
+
+
+def _check_modes(modes: npt.ArrayLike, n_modes: int, name: str) -> IntArray:
+    arr = _mode_indices(modes, name)
     if arr.size and (arr.min() < 0 or arr.max() >= n_modes):
         raise ValueError(f"{name} holds a mode index outside 0..{n_modes - 1}")
     return arr
@@ -61,9 +77,14 @@ def mode_accuracy(estimated: npt.ArrayLike, truth: npt.ArrayLike) -> float:
     float
         In ``[0, 1]``; NaN for an empty run.
 
+    Raises
+    ------
+    ValueError
+        Arrays that are not 1-D, of different lengths, or a value that is no whole number.
+
     """
-    est = np.asarray(estimated, dtype=np.int64)
-    tru = np.asarray(truth, dtype=np.int64)
+    est = _mode_indices(estimated, "estimated modes")
+    tru = _mode_indices(truth, "true modes")
     if est.shape != tru.shape:
         raise ValueError(f"estimated modes have shape {est.shape} but truth {tru.shape}")
     if est.size == 0:

@@ -653,3 +653,85 @@ def test_a_model_of_many_modes_runs_on_the_compiled_loops(name: str, sets: dict[
     signals = simulate(model, steps=60, seed=1).signals(model)
     result = prepare(model, name, sets).run(model, signals)
     assert result.n_samples == signals.n_samples and np.isfinite(result.state_means).all()
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_a_log_of_no_sample_is_an_empty_result_or_a_one_line_error(name, cases):
+    # sliding-mode and unknown-mode indexed the first row: IndexError from Prepared.run
+    model, signals = cases[model_for(name)]
+    try:
+        result = prepare(model, name).run(model, signals.rows(0, 0))
+    except HybridlogError as error:
+        assert "\n" not in str(error)
+    else:
+        assert result.modes.shape == (0,) and result.state_means.shape == (0, model.n_states)
+
+
+def _given_as(signals, kind):
+    """``signals`` with inputs and outputs as a caller of the library may hold them."""
+    if kind == "lists":
+        return dataclasses.replace(
+            signals, inputs=signals.inputs.tolist(), outputs=signals.outputs.tolist()
+        )
+    if kind == "strided":  # every other row of arrays twice as long, in Fortran order
+        return dataclasses.replace(
+            signals,
+            inputs=np.asfortranarray(np.repeat(signals.inputs, 2, axis=0))[::2],
+            outputs=np.asfortranarray(np.repeat(signals.outputs, 2, axis=0))[::2],
+        )
+    inputs, outputs = signals.inputs.copy(), signals.outputs.copy()
+    inputs.flags.writeable = outputs.flags.writeable = False
+    return dataclasses.replace(signals, inputs=inputs, outputs=outputs)
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_signals_as_lists_strided_or_read_only_arrays_give_the_same_result(name, cases, runs):
+    # chiu and kmeans took a list for an array (AttributeError), sliding-mode's compiled
+    # code refused a read-only array (numba's TypeError)
+    model, signals = cases[model_for(name)]
+    prepared, result, _ = runs[name]
+    for kind in ("lists", "strided", "read-only"):
+        given = prepared.run(model, _given_as(signals, kind))
+        np.testing.assert_array_equal(given.modes, result.modes, err_msg=kind)
+        np.testing.assert_array_equal(given.state_means, result.state_means, err_msg=kind)
+    if ESTIMATORS[name].capabilities.supports_smoothing:  # the offline pass reads them too
+        smoothed = prepare(model, name, {"smooth": True})
+        listed = smoothed.run(model, _given_as(signals, "lists"))
+        np.testing.assert_array_equal(listed.modes, smoothed.run(model, signals).modes)
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_an_input_or_output_that_is_not_finite_is_a_log_error_naming_it(name, cases):
+    # kmeans let SciPy's "array must not contain infs or NaNs" through; the filters called
+    # it a divergence of their own
+    model, signals = cases[model_for(name)]
+    outputs = signals.outputs.copy()
+    outputs[5, 0] = np.nan
+    with pytest.raises(LogError, match=rf"outputs: {model.outputs[0]} = nan at t = .* \(row 5\)"):
+        prepare(model, name).run(model, dataclasses.replace(signals, outputs=outputs))
+
+
+@pytest.mark.parametrize("name", list(ESTIMATORS))
+def test_signals_aligned_for_another_model_are_refused(name, cases):
+    # imm of the three-tank model ran on the double cart's signals (outputs y for y1, y2,
+    # y3): its compiled loop read three columns of a one-column array and gave a result
+    model, _ = cases[model_for(name)]
+    other = "three_tank_hstf" if model_for(name) == "double_cart_case1" else "double_cart_case1"
+    _, signals = cases[other]
+    with pytest.raises(LogError, match="signals aligned for another model"):
+        prepare(model, name).run(model, signals)
+
+
+@pytest.mark.parametrize(
+    ("name", "overrides", "shown"),
+    [
+        (3, None, "--estimator: expected an estimator's name, got the int '3'"),
+        ("imm", ["smooth=true"], r"--set: expected a mapping .* got the list '\['smooth=true'\]'"),
+        ("imm", {1: "x"}, "--set: expected a mapping of option names to values, got the dict"),
+    ],
+)
+def test_prepare_refuses_arguments_of_the_wrong_type(name, overrides, shown, cases):
+    # AttributeError: 'int' object has no attribute 'casefold', 'list' ... no attribute 'items'
+    model, _ = cases["three_tank_hstf"]
+    with pytest.raises(OptionError, match=shown):
+        prepare(model, name, overrides)

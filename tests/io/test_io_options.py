@@ -89,3 +89,23 @@ def test_a_msg_dir_that_is_no_folder_is_refused_whatever_the_log(tmp_path) -> No
     with pytest.raises(OptionError, match=r"a file, not a folder of \.msg files$"):
         ReadOptions(msg_dirs=(str(afile),))
     assert ReadOptions(msg_dirs=(str(tmp_path),)).msg_dirs == (str(tmp_path),)
+
+
+@pytest.mark.parametrize(
+    ("path", "options", "shown"),
+    [
+        (None, None, r"log: expected a path \(a str or pathlib.Path\), got the NoneType 'None'"),
+        ("", None, "log: expected a path .* got the str ''"),
+        (TANK_CSV, {"maps": ()}, "read: expected a hybridlog.io.ReadOptions or None, got the dict"),
+    ],
+)
+def test_reading_a_log_refuses_arguments_of_the_wrong_type(path, options, shown):
+    # load_signals and inspect_log let Python's TypeError (a None path) and AttributeError
+    # (a dict of options: no attribute 'resample') through
+    from hybridlog.io import inspect_log, load_signals
+
+    spec = SignalSpec.of(load_model("three_tank_hstf"))
+    with pytest.raises(OptionError, match=shown):
+        load_signals(path, spec, options)
+    with pytest.raises(OptionError, match=shown):
+        inspect_log(path, options)

@@ -423,3 +423,23 @@ def test_replaced_leaves_an_inherited_symbolic_field_unread() -> None:
     assert not computed
     assert isinstance(stored(copy, "e"), Deferred)
     assert (copy.a, copy.b, copy.e) == (1, 3, 5)
+
+
+@pytest.mark.parametrize(
+    ("name", "parameters", "shown"),
+    [
+        (None, None, "model: expected a built-in name .* got the NoneType 'None'"),
+        (3, None, "model: .* got the int '3'"),
+        ("", None, "model: .* got the str ''"),
+        (
+            "three_tank_hstf",
+            ["A=140"],
+            r"three_tank_hstf: parameters: .* got the list '\['A=140'\]'",
+        ),
+        ("three_tank_hstf", {1: 2.0}, "three_tank_hstf: parameters: .* got the dict"),
+    ],
+)
+def test_an_argument_of_the_wrong_type_is_a_model_error(name, parameters, shown):
+    # a TypeError, ValueError or AttributeError of Python's escaped from the library call
+    with pytest.raises(ModelError, match=shown):
+        load_model(name, parameters=parameters)

@@ -208,6 +208,25 @@ def test_accuracy_and_confusion_by_hand() -> None:
     np.testing.assert_array_equal(counts, [[1, 0, 0], [1, 2, 0], [0, 0, 1]])
 
 
+@pytest.mark.parametrize(
+    ("estimated", "shown"),
+    [([0.0, 0.5, 1.0], "0.5 at sample 1"), ([0.0, np.nan, 1.0], "nan at sample 1")],
+)
+def test_modes_that_are_no_whole_number_are_refused_not_truncated(
+    estimated: list[float], shown: str
+) -> None:
+    # a cast truncated 0.5 to mode 0 and NaN to a huge negative index (with a
+    # RuntimeWarning, which the module promises never to give): an accuracy of 2/3 or 1/3
+    truth = np.array([0, 0, 1])
+    with pytest.raises(ValueError, match=f"estimated modes: {shown} is not a mode index"):
+        mode_metrics.mode_accuracy(np.array(estimated), truth)
+    with pytest.raises(ValueError, match=f"estimated modes: {shown} is not a mode index"):
+        mode_metrics.confusion_matrix(np.array(estimated), truth, 2)
+    assert mode_metrics.mode_accuracy([0.0, 1.0, 1.0], truth) == pytest.approx(2 / 3)
+    with pytest.raises(ValueError, match="must be 1-D"):
+        mode_metrics.mode_accuracy(np.zeros((3, 1)), np.zeros((3, 1)))
+
+
 def test_confusion_rejects_out_of_range_modes() -> None:
     with pytest.raises(ValueError, match="outside"):
         mode_metrics.confusion_matrix(np.array([0, 3]), np.array([0, 0]), 3)

@@ -433,7 +433,7 @@ def _run(
     assignment_of = list(labels)
     best_assignments = [assignment_of[j] for j in best_label.tolist()]
     modes = best_label
-    predictions[0] = np.nan
+    predictions[:1] = np.nan  # no prediction before the first sample (of a log of none)
     p_columns = [
         TimelineColumn(f"p_unknown.{component.name}", np.clip(p_unknown[:, c], 0.0, 1.0))
         for c, component in enumerate(components)
