@@ -248,10 +248,34 @@ def _temporal_ns(table: TableFile, column: pl.Series, rows: IntArray) -> IntArra
             what, held = "date", "the years 1678 to 2262"
         else:
             what, held = "duration", f"{MAX_SECONDS:.2g} s either way"
+        shown = _stored_time(column, row, int(stored[row]), unit)
         raise LogError(
             f"{table.path}, {table.row_label(int(rows[row]))}, column "
-            f"{excerpt(column.name)}: the {what} {excerpt(str(column[row]), 40)} is beyond "
+            f"{excerpt(column.name)}: the {what} {shown} is beyond "
             f"what the nanosecond grid holds ({held})"
         )
     time_ns: IntArray = stored * factor
     return time_ns
+
+
+# What Python's datetime and timedelta hold: the years 1 to 9999, 999999999 days.
+_DATETIME_SECONDS = (-62_135_596_800.0, 253_402_300_800.0)
+_TIMEDELTA_SECONDS = 999_999_999 * 86_400.0
+
+
+def _stored_time(column: pl.Series, row: int, stored: int, unit: str) -> str:
+    """The ``row``-th date or duration of ``column``, ``stored`` in its ``unit``.
+
+    As polars shows it where Python's ``datetime`` or ``timedelta`` holds it; else as
+    numpy's ``datetime64`` writes the date (any year), or in seconds: the conversion of a
+    date in the year 0 or beyond 9999 raised ``ValueError``, and one past the year 262143
+    made polars panic (a traceback, exit 1), in place of the error naming the row.
+    """
+    seconds = stored * {"ns": 1e-9, "us": 1e-6, "ms": 1e-3}[unit]
+    if isinstance(column.dtype, pl.Datetime):
+        if _DATETIME_SECONDS[0] <= seconds < _DATETIME_SECONDS[1]:
+            return excerpt(str(column[row]), 40)
+        return f"{np.array(stored, dtype=np.int64).astype(f'datetime64[{unit}]')} (UTC)"
+    if abs(seconds) < _TIMEDELTA_SECONDS:
+        return excerpt(str(column[row]), 40)
+    return f"{format_time(seconds)} s"
