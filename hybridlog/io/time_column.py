@@ -9,6 +9,7 @@ could be told.  The column's names and the ISO format are :mod:`.table_times`'.
 
 from __future__ import annotations
 
+from decimal import Decimal, InvalidOperation
 from typing import Any
 
 import numpy as np
@@ -125,6 +126,9 @@ def time_ns(
     if check and not_after.size and not_after.any():
         i = int(np.argmax(not_after)) + 1
         how = "repeats" if times[i] == times[i - 1] else "goes backwards"
+        merged = _read_as_one(table, name, int(rows[i - 1]), int(rows[i]), int(times[i]))
+        if how == "repeats" and merged is not None:
+            raise LogError(merged)
         raise LogError(
             f"{table.path}, {table.row_label(int(rows[i]))}, column {excerpt(name)}: time {how} "
             f"(t={format_ns(int(times[i]))} s after t={format_ns(int(times[i - 1]))} s "
@@ -279,3 +283,38 @@ def _stored_time(column: pl.Series, row: int, stored: int, unit: str) -> str:
     if abs(seconds) < _TIMEDELTA_SECONDS:
         return excerpt(str(column[row]), 40)
     return f"{format_time(seconds)} s"
+
+
+def _read_as_one(table: TableFile, name: str, earlier: int, later: int, time: int) -> str | None:
+    """Why two CSV cells written as different numbers read as one time, if they do.
+
+    Rows ``earlier`` and ``later`` (0-based data rows) read as ``time`` (ns).  Seconds are
+    read as a ``float64`` and then to the nanosecond: ``1700000004.0000001`` after
+    ``1700000004.0`` (float64 holds 238 ns there), or ``4.0000000001`` after ``4.0``, were
+    refused as a time that "repeats (t=1700000004 s after t=1700000004 s)", which the file
+    did not say.  ``None`` for other cells (a Parquet column holds what it read; ISO text is
+    read to the nanosecond as written).
+    """
+    if table.format != "csv":
+        return None
+    cells = read_csv_strings(table.file, [name], checked=True).get_column(name)
+    first, second = (str(cells[row]).strip() for row in (earlier, later))
+    try:
+        if Decimal(first) == Decimal(second):
+            return None
+    except InvalidOperation:  # ISO 8601 text
+        return None
+    seconds = time / NS_PER_S
+    spacing_ns = float(np.spacing(abs(float(second)))) * NS_PER_S
+    held = (
+        f"float64 seconds near t={format_time(seconds)} s are {spacing_ns:.3g} ns apart"
+        if spacing_ns > 1
+        else "times are read to the nanosecond"
+    )
+    return (
+        f"{table.path}, {table.row_label(later)}, column {excerpt(name)}: time "
+        f"{excerpt(second, 40)} reads as the time of {excerpt(first, 40)} on "
+        f"{table.row_label(earlier)} (t={format_time(seconds)} s): {held}, so the two "
+        "rows have one time; write times further apart (or from the log's start), or "
+        "--sort combines such rows into one sample per column"
+    )
