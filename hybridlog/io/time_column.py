@@ -89,6 +89,7 @@ def time_ns(
             )
     if isinstance(column.dtype, pl.Datetime | pl.Duration):
         resolution_ns = 1.0
+        stored_seconds: FloatArray | None = None
         times: IntArray = _temporal_ns(table, column, rows)
     else:
         stored = column.dtype
@@ -120,13 +121,20 @@ def time_ns(
             kind = np.float16
         resolution_ns = seconds_resolution_ns(seconds, kind)
         times = seconds_to_ns(seconds)
+        stored_seconds = seconds
     # Compared pairwise (no array of N differences): within +-9.2e18 ns differences
     # do not overflow, so ``later <= earlier`` is ``diff <= 0``.
     not_after = times[1:] < times[:-1] if repeats else times[1:] <= times[:-1]
     if check and not_after.size and not_after.any():
         i = int(np.argmax(not_after)) + 1
         how = "repeats" if times[i] == times[i - 1] else "goes backwards"
-        merged = _read_as_one(table, name, int(rows[i - 1]), int(rows[i]), int(times[i]))
+        merged = _read_as_one(
+            table,
+            name,
+            (int(rows[i - 1]), int(rows[i])),
+            int(times[i]),
+            None if stored_seconds is None else stored_seconds[i - 1 : i + 1],
+        )
         if how == "repeats" and merged is not None:
             raise LogError(merged)
         raise LogError(
@@ -285,25 +293,36 @@ def _stored_time(column: pl.Series, row: int, stored: int, unit: str) -> str:
     return f"{format_time(seconds)} s"
 
 
-def _read_as_one(table: TableFile, name: str, earlier: int, later: int, time: int) -> str | None:
-    """Why two CSV cells written as different numbers read as one time, if they do.
+def _read_as_one(
+    table: TableFile,
+    name: str,
+    rows: tuple[int, int],
+    time: int,
+    stored: FloatArray | None,
+) -> str | None:
+    """Why two times written as different numbers read as one, if they do.
 
-    Rows ``earlier`` and ``later`` (0-based data rows) read as ``time`` (ns).  Seconds are
-    read as a ``float64`` and then to the nanosecond: ``1700000004.0000001`` after
-    ``1700000004.0`` (float64 holds 238 ns there), or ``4.0000000001`` after ``4.0``, were
-    refused as a time that "repeats (t=1700000004 s after t=1700000004 s)", which the file
-    did not say.  ``None`` for other cells (a Parquet column holds what it read; ISO text is
-    read to the nanosecond as written).
+    ``rows``: the two data rows (0-based), which read as ``time`` (ns); ``stored``: their
+    seconds as read, for a Parquet number column.  Seconds are read as a ``float64`` and
+    then to the nanosecond: a CSV ``1700000004.0000001`` after ``1700000004.0`` (float64
+    holds 238 ns there), or ``4.0000000001`` after ``4.0`` (in a Parquet float64 column
+    too), were refused as a time that "repeats (t=1700000004 s after t=1700000004 s)",
+    which the file did not say.  ``None`` for times written alike, and for ISO 8601 text
+    and a ``Datetime`` or ``Duration`` (read to the nanosecond as written).
     """
-    if table.format != "csv":
-        return None
-    cells = read_csv_strings(table.file, [name], checked=True).get_column(name)
-    first, second = (str(cells[row]).strip() for row in (earlier, later))
-    try:
-        if Decimal(first) == Decimal(second):
+    earlier, later = rows
+    if table.format == "csv":
+        cells = read_csv_strings(table.file, [name], checked=True).get_column(name)
+        first, second = (str(cells[row]).strip() for row in rows)
+        try:
+            if Decimal(first) == Decimal(second):
+                return None
+        except InvalidOperation:  # ISO 8601 text
             return None
-    except InvalidOperation:  # ISO 8601 text
+    elif stored is None or stored[0] == stored[1]:
         return None
+    else:
+        first, second = (repr(float(value)) for value in stored)
     seconds = time / NS_PER_S
     spacing_ns = float(np.spacing(abs(float(second)))) * NS_PER_S
     held = (

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import polars as pl
 import pytest
 
 from hybridlog.errors import LogError
@@ -53,4 +54,12 @@ def test_times_apart_by_less_than_a_nanosecond(tmp_path: Path) -> None:
 def test_a_time_written_twice_still_repeats(tmp_path: Path) -> None:
     log = _log(tmp_path / "twice.csv", ["0.0", "1.0", "1", "2.0"])
     with pytest.raises(LogError, match=r"line 5, column 't': time repeats \(t=1 s after t=1 s"):
+        load_signals(log, SPEC)
+
+
+def test_parquet_seconds_apart_by_less_than_a_nanosecond(tmp_path: Path) -> None:
+    log = tmp_path / "burst.parquet"
+    t = [0.0, 1.0, 1.0000000001, 2.0]
+    pl.DataFrame({"t": t, "u": [0.0, 1.0, 2.0, 3.0], "y": [0.0, 1.0, 2.0, 3.0]}).write_parquet(log)
+    with pytest.raises(LogError, match=r"row 3, column 't': time '1.0000000001' reads as the time"):
         load_signals(log, SPEC)
