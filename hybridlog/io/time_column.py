@@ -74,6 +74,7 @@ def time_ns(
     """
     name = column.name
     if holds_text(column.dtype):
+        text_type = column.dtype  # a Categorical or Enum: said as such, not as its String
         column = column.cast(pl.String)
         written = column.drop_nulls()
         iso = iso_format(written[0] if written.len() else None)
@@ -81,7 +82,7 @@ def time_ns(
             column = _parse_iso(table, column, iso, rows)
         elif table.format != "csv":  # a CSV cell is text whatever it holds
             raise LogError(
-                f"{table.path}: column {excerpt(name)} has type {column.dtype}, expected "
+                f"{table.path}: column {excerpt(name)} has type {text_type}, expected "
                 "seconds as numbers or ISO 8601 dates and times (e.g. "
                 f"2024-01-01T00:00:00.5), and its first value is {excerpt(written[0], 40)}"
                 if written.len()

@@ -41,3 +41,15 @@ def test_a_nested_time_column_is_refused_as_inspect_says(
     assert "expected seconds as numbers, a Datetime or Duration" in said
     (problem,) = inspect_log(log)["problems"]
     assert problem == said.removeprefix(f"{log}: ")
+
+
+def test_a_categorical_time_column_is_said_to_be_one(tmp_path: Path) -> None:
+    """Its error (and inspect's problem) said "type String", the type it is read as."""
+    log = tmp_path / "categories.parquet"
+    values = np.arange(3, dtype=float)
+    time = pl.Series(["0.0", "1.0", "2.0"]).cast(pl.Categorical)
+    pl.DataFrame({"t": time, "u": values, "y": values}).write_parquet(log)
+    with pytest.raises(LogError, match=r"column 't' has type Categorical, expected seconds"):
+        load_signals(log, SPEC)
+    (problem,) = inspect_log(log)["problems"]
+    assert problem.startswith("column 't' has type Categorical, expected seconds")
