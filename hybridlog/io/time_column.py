@@ -92,6 +92,10 @@ def time_ns(
         resolution_ns = 1.0
         stored_seconds: FloatArray | None = None
         times: IntArray = _temporal_ns(table, column, rows)
+    elif isinstance(column.dtype, pl.Decimal):
+        resolution_ns = 1.0
+        stored_seconds = None
+        times = _decimal_ns(table, column, rows)
     else:
         stored = column.dtype
         if table.format == "parquet" and not stored.is_numeric():
@@ -209,6 +213,30 @@ def _check_float64_resolution(
         "write the time from the log's start, or as ISO 8601 dates and times with "
         "nanoseconds (a Datetime in Parquet)"
     )
+
+
+def _decimal_ns(table: TableFile, column: pl.Series, rows: IntArray) -> IntArray:
+    """A Parquet decimal time column in nanoseconds, as written (to the nearest ns).
+
+    A decimal holds its digits: read through a ``float64`` (as a float column is), Unix
+    times lost all below 238 ns, and a log whose decimals step by 100 ns was refused as
+    "float64 seconds ... too coarse", a type it does not have.
+
+    Raises
+    ------
+    LogError
+        For a time beyond what int64 nanoseconds hold, naming its row.
+    """
+    scaled = column.cast(pl.Decimal(38, 9), strict=False).to_physical()  # Int128 ns
+    inside = (scaled.abs() < int(MAX_SECONDS * NS_PER_S)).fill_null(False).to_numpy()
+    if not inside.all():
+        row = int(np.argmin(inside))
+        raise LogError(
+            f"{table.path}, {table.row_label(int(rows[row]))}, column {excerpt(column.name)}: "
+            f"{bad_seconds(float(column[row]))}"
+        )
+    time_ns: IntArray = scaled.cast(pl.Int64).to_numpy().astype(np.int64, copy=False)
+    return time_ns
 
 
 def _parse_iso(table: TableFile, column: pl.Series, iso: str, rows: IntArray) -> pl.Series:
