@@ -28,7 +28,9 @@ def _as_labels(column: pl.Series, *, written: bool = False) -> pl.Series:
     than the ``1.5``.  A text column of a typed table (Parquet ``String``) is text, as a
     ROS ``string`` or a JSON string is: ``"1.0"`` there is no mode ``1``.  A Boolean column
     is mode ``0`` or ``1``, as a ROS ``bool`` or a JSON boolean is (it read ``'true'``, no
-    mode of a model whose modes are ``0`` and ``1``).
+    mode of a model whose modes are ``0`` and ``1``).  A decimal column holds numbers too:
+    a whole one is written without its zero decimals (``1.00`` is mode ``1``; it was
+    refused as no mode ``'1.00'``), every digit kept (no ``float64`` on the way).
     """
     if column.dtype == pl.String and written:
         text = column.str.strip_chars()
@@ -59,6 +61,8 @@ def _as_labels(column: pl.Series, *, written: bool = False) -> pl.Series:
             pl.when(exact).then(whole.cast(pl.String)).otherwise(column.cast(pl.String))
         ).to_series()
     text = column.cast(pl.String).str.strip_chars()
+    if isinstance(dtype, pl.Decimal):  # a number: 1.00 is mode 1, as a float column's 1.0
+        text = text.str.replace(r"^(-?[0-9]+)\.0*$", "${1}")
     return pl.select(pl.when(text != "").then(text)).to_series().alias(column.name)
 
 

@@ -61,7 +61,7 @@ from hybridlog.io.table_labels import label_codes
 from hybridlog.io.table_numbers import ColumnBlock, refuse_inexact, refuse_overflow, to_float
 from hybridlog.io.table_paths import ARRAY, STRUCT, ColumnPath, field_names
 from hybridlog.io.table_paths import resolve as resolve_path
-from hybridlog.io.table_times import TIME_COLUMNS, iso_format
+from hybridlog.io.table_times import TIME_COLUMNS, iso_format, not_a_time
 from hybridlog.io.time_column import kept_rows, time_ns
 from hybridlog.io.time_order import count_repeats, last_at_each_time, sorted_rows, superseded_notes
 from hybridlog.polars_import import pl
@@ -294,10 +294,12 @@ class TableSource:
         """
         table = self._table
         time_column = self._require_time()
-        for name in (*numeric, *labels):
+        for name in (time_column, *numeric, *labels):
             try:
                 self._path(name)
             except PathError as err:
+                if name == time_column:  # a struct or list column: as inspect says it
+                    raise LogError(not_a_time(self.path, name, self._schema[name])) from None
                 raise LogError(f"{self.path}: {err}") from None
         wanted = list(dict.fromkeys([time_column, *numeric, *labels]))
         as_float = {time_column, *numeric} - set(labels)

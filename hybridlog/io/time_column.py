@@ -9,6 +9,7 @@ could be told.  The column's names and the ISO format are :mod:`.table_times`'.
 
 from __future__ import annotations
 
+from decimal import Decimal, InvalidOperation
 from typing import Any
 
 import numpy as np
@@ -73,6 +74,7 @@ def time_ns(
     """
     name = column.name
     if holds_text(column.dtype):
+        text_type = column.dtype  # a Categorical or Enum: said as such, not as its String
         column = column.cast(pl.String)
         written = column.drop_nulls()
         iso = iso_format(written[0] if written.len() else None)
@@ -80,7 +82,7 @@ def time_ns(
             column = _parse_iso(table, column, iso, rows)
         elif table.format != "csv":  # a CSV cell is text whatever it holds
             raise LogError(
-                f"{table.path}: column {excerpt(name)} has type {column.dtype}, expected "
+                f"{table.path}: column {excerpt(name)} has type {text_type}, expected "
                 "seconds as numbers or ISO 8601 dates and times (e.g. "
                 f"2024-01-01T00:00:00.5), and its first value is {excerpt(written[0], 40)}"
                 if written.len()
@@ -88,7 +90,12 @@ def time_ns(
             )
     if isinstance(column.dtype, pl.Datetime | pl.Duration):
         resolution_ns = 1.0
+        stored_seconds: FloatArray | None = None
         times: IntArray = _temporal_ns(table, column, rows)
+    elif isinstance(column.dtype, pl.Decimal):
+        resolution_ns = 1.0
+        stored_seconds = None
+        times = _decimal_ns(table, column, rows)
     else:
         stored = column.dtype
         if table.format == "parquet" and not stored.is_numeric():
@@ -119,12 +126,22 @@ def time_ns(
             kind = np.float16
         resolution_ns = seconds_resolution_ns(seconds, kind)
         times = seconds_to_ns(seconds)
+        stored_seconds = seconds
     # Compared pairwise (no array of N differences): within +-9.2e18 ns differences
     # do not overflow, so ``later <= earlier`` is ``diff <= 0``.
     not_after = times[1:] < times[:-1] if repeats else times[1:] <= times[:-1]
     if check and not_after.size and not_after.any():
         i = int(np.argmax(not_after)) + 1
         how = "repeats" if times[i] == times[i - 1] else "goes backwards"
+        merged = _read_as_one(
+            table,
+            name,
+            (int(rows[i - 1]), int(rows[i])),
+            int(times[i]),
+            None if stored_seconds is None else stored_seconds[i - 1 : i + 1],
+        )
+        if how == "repeats" and merged is not None:
+            raise LogError(merged)
         raise LogError(
             f"{table.path}, {table.row_label(int(rows[i]))}, column {excerpt(name)}: time {how} "
             f"(t={format_ns(int(times[i]))} s after t={format_ns(int(times[i - 1]))} s "
@@ -198,6 +215,30 @@ def _check_float64_resolution(
     )
 
 
+def _decimal_ns(table: TableFile, column: pl.Series, rows: IntArray) -> IntArray:
+    """A Parquet decimal time column in nanoseconds, as written (to the nearest ns).
+
+    A decimal holds its digits: read through a ``float64`` (as a float column is), Unix
+    times lost all below 238 ns, and a log whose decimals step by 100 ns was refused as
+    "float64 seconds ... too coarse", a type it does not have.
+
+    Raises
+    ------
+    LogError
+        For a time beyond what int64 nanoseconds hold, naming its row.
+    """
+    scaled = column.cast(pl.Decimal(38, 9), strict=False).to_physical()  # Int128 ns
+    inside = (scaled.abs() < int(MAX_SECONDS * NS_PER_S)).fill_null(False).to_numpy()
+    if not inside.all():
+        row = int(np.argmin(inside))
+        raise LogError(
+            f"{table.path}, {table.row_label(int(rows[row]))}, column {excerpt(column.name)}: "
+            f"{bad_seconds(float(column[row]))}"
+        )
+    time_ns: IntArray = scaled.cast(pl.Int64).to_numpy().astype(np.int64, copy=False)
+    return time_ns
+
+
 def _parse_iso(table: TableFile, column: pl.Series, iso: str, rows: IntArray) -> pl.Series:
     """A text time column of ISO 8601 dates and times as a ``Datetime`` (ns; UTC if zoned).
 
@@ -248,10 +289,80 @@ def _temporal_ns(table: TableFile, column: pl.Series, rows: IntArray) -> IntArra
             what, held = "date", "the years 1678 to 2262"
         else:
             what, held = "duration", f"{MAX_SECONDS:.2g} s either way"
+        shown = _stored_time(column, row, int(stored[row]), unit)
         raise LogError(
             f"{table.path}, {table.row_label(int(rows[row]))}, column "
-            f"{excerpt(column.name)}: the {what} {excerpt(str(column[row]), 40)} is beyond "
+            f"{excerpt(column.name)}: the {what} {shown} is beyond "
             f"what the nanosecond grid holds ({held})"
         )
     time_ns: IntArray = stored * factor
     return time_ns
+
+
+# What Python's datetime and timedelta hold: the years 1 to 9999, 999999999 days.
+_DATETIME_SECONDS = (-62_135_596_800.0, 253_402_300_800.0)
+_TIMEDELTA_SECONDS = 999_999_999 * 86_400.0
+
+
+def _stored_time(column: pl.Series, row: int, stored: int, unit: str) -> str:
+    """The ``row``-th date or duration of ``column``, ``stored`` in its ``unit``.
+
+    As polars shows it where Python's ``datetime`` or ``timedelta`` holds it; else as
+    numpy's ``datetime64`` writes the date (any year), or in seconds: the conversion of a
+    date in the year 0 or beyond 9999 raised ``ValueError``, and one past the year 262143
+    made polars panic (a traceback, exit 1), in place of the error naming the row.
+    """
+    seconds = stored * {"ns": 1e-9, "us": 1e-6, "ms": 1e-3}[unit]
+    if isinstance(column.dtype, pl.Datetime):
+        if _DATETIME_SECONDS[0] <= seconds < _DATETIME_SECONDS[1]:
+            return excerpt(str(column[row]), 40)
+        return f"{np.array(stored, dtype=np.int64).astype(f'datetime64[{unit}]')} (UTC)"
+    if abs(seconds) < _TIMEDELTA_SECONDS:
+        return excerpt(str(column[row]), 40)
+    return f"{format_time(seconds)} s"
+
+
+def _read_as_one(
+    table: TableFile,
+    name: str,
+    rows: tuple[int, int],
+    time: int,
+    stored: FloatArray | None,
+) -> str | None:
+    """Why two times written as different numbers read as one, if they do.
+
+    ``rows``: the two data rows (0-based), which read as ``time`` (ns); ``stored``: their
+    seconds as read, for a Parquet number column.  Seconds are read as a ``float64`` and
+    then to the nanosecond: a CSV ``1700000004.0000001`` after ``1700000004.0`` (float64
+    holds 238 ns there), or ``4.0000000001`` after ``4.0`` (in a Parquet float64 column
+    too), were refused as a time that "repeats (t=1700000004 s after t=1700000004 s)",
+    which the file did not say.  ``None`` for times written alike, and for ISO 8601 text
+    and a ``Datetime`` or ``Duration`` (read to the nanosecond as written).
+    """
+    earlier, later = rows
+    if table.format == "csv":
+        cells = read_csv_strings(table.file, [name], checked=True).get_column(name)
+        first, second = (str(cells[row]).strip() for row in rows)
+        try:
+            if Decimal(first) == Decimal(second):
+                return None
+        except InvalidOperation:  # ISO 8601 text
+            return None
+    elif stored is None or stored[0] == stored[1]:
+        return None
+    else:
+        first, second = (repr(float(value)) for value in stored)
+    seconds = time / NS_PER_S
+    spacing_ns = float(np.spacing(abs(float(second)))) * NS_PER_S
+    held = (
+        f"float64 seconds near t={format_time(seconds)} s are {spacing_ns:.3g} ns apart"
+        if spacing_ns > 1
+        else "times are read to the nanosecond"
+    )
+    return (
+        f"{table.path}, {table.row_label(later)}, column {excerpt(name)}: time "
+        f"{excerpt(second, 40)} reads as the time of {excerpt(first, 40)} on "
+        f"{table.row_label(earlier)} (t={format_time(seconds)} s): {held}, so the two "
+        "rows have one time; write times further apart (or from the log's start), or "
+        "--sort combines such rows into one sample per column"
+    )

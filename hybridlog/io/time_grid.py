@@ -139,27 +139,40 @@ def _jittering_clock(held: Sequence[Series], dt_ns: int) -> Clock | None:
 
     The phase is the median of their samples' offsets modulo ``dt`` (taken from the first
     sample, none more than ``dt/2`` from it once all are within ``dt/4`` of the phase: the
-    circular median).  Each series must be sampled around it (:func:`sampled_around`), every sample
-    within ``dt/4`` of a tick, at most one at a tick, most one tick after the one before: what
-    :func:`~hybridlog.io.resampling.jittered_index` takes as a jittering clock (a series every other
-    step is not). Each topic of a log published once per step with its own jitter of 20 % of ``dt``
-    gave the grid the latest first message, 0.106 s after a tick with ``dt = 1 s``: input samples
-    lay up to 0.306 s from their point, beyond ``dt/4``, and the hold took 57 of 300 a step
-    late.
+    circular median), or else the middle of their spread: a clock jittering uniformly by
+    0.24 ``dt`` either way had its median 0.02 ``dt`` off the middle, samples beyond
+    ``dt/4`` of it, and the hold took 105 of 500 a step late.  Each series must be sampled
+    around it (:func:`_ticks_once`), every sample within ``dt/4`` of a tick, at most one at a
+    tick, most one tick after the one before: what
+    :func:`~hybridlog.io.resampling.jittered_index` takes as a jittering clock (a series
+    every other step is not). Each topic of a log published once per step with its own
+    jitter of 20 % of ``dt`` gave the grid the latest first message, 0.106 s after a tick
+    with ``dt = 1 s``: input samples lay up to 0.306 s from their point, beyond ``dt/4``, and
+    the hold took 57 of 300 a step late.
     """
     quarter = max(clock_tolerance_ns(dt_ns), dt_ns // 4)
     first = int(held[0].time_ns[0])
     offsets = np.concatenate([_from_tick(s.time_ns, first, dt_ns) for s in held])
-    tick = first + round(float(np.median(offsets)))
-    for series in held:
-        offset = _from_tick(series.time_ns, tick, dt_ns)
-        steps = np.diff((series.time_ns - offset - tick) // dt_ns)
-        once = bool((steps > 0).all()) and 2 * int(np.count_nonzero(steps == 1)) > steps.size
-        if not (
-            once and int(np.abs(offset).max()) <= quarter and sampled_around(series, tick, dt_ns)
-        ):
-            return None
-    return Clock(tick, quarter)
+    median = first + round(float(np.median(offsets)))
+    # the middle of their spread: the phase nearest to the farthest sample, where the median
+    # of samples jittering up to dt/4 either way lay off the middle and put some beyond dt/4
+    middle = first + (int(offsets.min()) + int(offsets.max())) // 2
+    for tick in dict.fromkeys((median, middle)):
+        if all(_ticks_once(series, tick, dt_ns, quarter) for series in held):
+            return Clock(tick, quarter)
+    return None
+
+
+def _ticks_once(series: Series, tick: int, dt_ns: int, quarter: int) -> bool:
+    """Whether ``series`` has a sample within ``quarter`` of ticks ``tick + k*dt``, once each.
+
+    At most one at a tick, most one tick after the one before, and sampled around them
+    (:func:`sampled_around`): a series every other step is not.
+    """
+    offset = _from_tick(series.time_ns, tick, dt_ns)
+    steps = np.diff((series.time_ns - offset - tick) // dt_ns)
+    once = bool((steps > 0).all()) and 2 * int(np.count_nonzero(steps == 1)) > steps.size
+    return once and int(np.abs(offset).max()) <= quarter and sampled_around(series, tick, dt_ns)
 
 
 def sampled_around(series: Series | LabelSeries, tick_ns: int, dt_ns: int) -> bool:
