@@ -337,7 +337,13 @@ def load_signals(
         truth_mode = None
         if mapping.truth_mode is not None:
             mode_series = reading.labels[mapping.truth_mode]
-            codes = _truth_mode_codes(info.path, reading.locate, mode_series, spec.mode_ids)
+            codes = _truth_mode_codes(
+                info.path,
+                reading.locate,
+                mode_series,
+                spec.mode_ids,
+                origin=mapping.origins.get(TRUTH_MODE, "--map"),
+            )
             truth_mode = LabelSeries(
                 mode_series.name, mode_series.time_ns, codes, tuple(spec.mode_ids)
             )
@@ -345,8 +351,14 @@ def load_signals(
         for component, name in mapping.truth_components.items():
             ids = spec.components[component]
             labelled = reading.labels[name]
+            symbol = component_truth_symbol(component)
             codes = _truth_mode_codes(
-                info.path, reading.locate, labelled, ids, symbol=f"truth.mode.{component}"
+                info.path,
+                reading.locate,
+                labelled,
+                ids,
+                symbol=symbol,
+                origin=mapping.origins.get(symbol, "--map"),
             )
             truth_components[component] = LabelSeries(labelled.name, labelled.time_ns, codes, ids)
         aligned = _aligned(
@@ -591,6 +603,7 @@ def _truth_mode_codes(
     mode_ids: Sequence[str],
     *,
     symbol: str = "truth.mode",
+    origin: str = "--map",
 ) -> IntArray:
     """Translate a true-mode label series (of ``symbol``) into indices of ``mode_ids``.
 
@@ -601,6 +614,11 @@ def _truth_mode_codes(
     accent names the model's ``é`` (which the loader keeps distinct in that form,
     :func:`~hybridlog.model.values.check_distinct_labels`); it was refused as no mode, the
     error listing an id that looked the same.
+
+    ``origin`` says where the field came from (``SignalMap.origins``): one read as the true
+    mode by its name (``"default"``, a CSV column ``mode``) or by the model's ``[truth]``
+    table, not by the user, may be a column that means something else (a controller's
+    ``AUTO``/``MANUAL``); the refusal then says how to name another field or none.
 
     Raises
     ------
@@ -620,9 +638,20 @@ def _truth_mode_codes(
         raise LogError(
             f"{path}, {locate(series.name, first)}: {symbol} {label!r} at "
             f"t={format_ns(int(series.time_ns[first]))} s is not a mode of {owner} "
-            f"(mode ids: {', '.join(mode_ids)}; compared as text)"
+            f"(mode ids: {', '.join(mode_ids)}; compared as text){_read_as_truth(origin, symbol)}"
         )
     return codes
+
+
+def _read_as_truth(origin: str, symbol: str) -> str:
+    """Why a field nobody named was read as ``symbol``, and the remedy ("" for ``--map``)."""
+    if origin == "--map":
+        return ""
+    why = "by its name" if origin == "default" else f"as the model's {origin} names it"
+    return (
+        f"; it was read as {symbol} {why}: if it holds something else, rename it in the log, "
+        f"or name the true modes' field with --map {symbol}=FIELD"
+    )
 
 
 def _refuse_nonfinite(path: str, locate: Locate, series: Series, symbol: str) -> None:
