@@ -222,6 +222,7 @@ class Estimator:
 
 _PER_SAMPLE_CLASSIFIER = Capabilities(
     needs_linear_model=True,
+    needs_detectable=True,
     state_variances=False,
     no_smoothing="it classifies each sample from its own regressor (paper 001 eqs. (2)-(3)): "
     "no mode chain and no likelihoods to smooth",
