@@ -110,6 +110,11 @@ class Capabilities:
         ``--mode-sequence argmax`` gives, which the smoother's reason does not answer.
     needs_single_output:
         The model must have exactly one output (paper 004's observer, ``h`` maps to R).
+    needs_detectable:
+        Every mode of a linear discrete-time model must be detectable at every decay rate the
+        observer design takes (at most 1): no eigenvalue of ``A`` with ``|λ| ≥ 1`` that the
+        outputs do not see, for which paper 001's LMI (15) has no solution whatever the log
+        (:attr:`ModelTraits.undetectable`).
     needs_drift_observable:
         Every mode's ``Φ = [h, L_f h, …]`` must reach every state (paper 004, eq. (7)): a
         state that neither ``h`` nor, through the drift's ``dx``, any derivative of it
@@ -150,6 +155,7 @@ class Capabilities:
     supports_smoothing: bool = False
     needs_single_output: bool = False
     needs_drift_observable: bool = False
+    needs_detectable: bool = False
     no_smoothing: str = ""
     mode_rule: str = ""
     modes_of_the_step_into: bool = False
@@ -162,6 +168,8 @@ class Capabilities:
         words = ["continuous-time model" if self.continuous_time else "discrete-time model"]
         if self.needs_linear_model:
             words.append("linear modes")
+        if self.needs_detectable:
+            words.append("every mode detectable (no unobserved eigenvalue with |λ| ≥ 1)")
         if self.needs_markov_matrix:
             words.append("Markov matrix")
         elif self.uses_markov_matrix:
@@ -222,6 +230,8 @@ class Capabilities:
             return "needs a Markov matrix; the model has no [transitions] table"
         if self.needs_linear_model and traits.nonlinear is not None:
             return f"needs a linear model; the modes are nonlinear: {traits.nonlinear}"
+        if self.needs_detectable and traits.undetectable is not None:
+            return f"needs every mode detectable from its outputs; {traits.undetectable}"
         if self.needs_measurement_noise and traits.unstated_measurement_noise is not None:
             from hybridlog.model.hybrid_model import WEIGHS_OUTPUTS
 
@@ -529,6 +539,43 @@ class ModelTraits:
                 if bent:
                     return f"modes.{mode.id}.{key}[{i}] is not affine in {', '.join(bent)}"
         return f"{mode.nonlinear_key} is not affine in the states and inputs"
+
+    @functools.cached_property
+    def undetectable(self) -> str | None:
+        """The first linear mode with an unobserved eigenvalue ``|λ| ≥ 1``, or None.
+
+        Paper 001's LMI (15) asks for a decay rate of at most 1, which no gain ``L_i`` gives
+        ``A_i − L_i C_i`` along an eigenvalue ``C_i`` does not see: ``chiu`` and ``kmeans``
+        read and clustered the whole log before refusing such a model, and ``hybridlog
+        models FILE`` listed them among its estimators in the line above its own warning
+        that they refuse the mode.  Judged as that warning judges it
+        (:func:`~hybridlog.model.diagnosis.unobservable_basis`: the eigenvalues of ``A`` on
+        the null space of the observability matrix); ``None`` also for a model with a mode
+        that is not linear (refused for that first).
+        """
+        forms = [mode.linear_form for mode in self.model.modes]
+        if self.model.is_continuous or not forms or any(form is None for form in forms):
+            return None
+        import numpy as np
+
+        from hybridlog.model.diagnosis import unobservable_basis
+
+        for mode, form in zip(self.model.modes, forms, strict=True):
+            assert form is not None  # for mypy: checked above
+            basis = unobservable_basis(form.A, form.C)
+            if basis.shape[1] == 0:
+                continue
+            seen = [complex(v) for v in np.linalg.eigvals(basis.T @ form.A @ basis)]
+            slow = [v for v in seen if abs(v) >= 1.0]
+            if slow:
+                worst = max(slow, key=abs)
+                shown = f"{worst.real:.4g}" if worst.imag == 0.0 else f"{worst:.4g}"
+                return (
+                    f"mode '{mode.id}' has the eigenvalue {shown} (|λ| = {abs(worst):.4g}), "
+                    "which its outputs do not see, so the observer LMI (15) of paper 001 has "
+                    "no gain for it at any decay rate"
+                )
+        return None
 
     @functools.cached_property
     def unstated_measurement_noise(self) -> str | None:

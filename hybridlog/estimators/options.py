@@ -52,6 +52,11 @@ An options dataclass may refuse a value the model cannot take with a method
 ``invalid_on(self, model)`` (name → why, e.g. more eigenvalues than the model has states):
 :func:`check_table` refuses a model file's key of it, naming the file and the key.
 
+An options dataclass may say that its values leave the estimator without something it needs
+with a method ``missing(self)`` (why, or None; ``sliding-mode`` without ``v_max`` or
+``drift_bound`` has no gain V_M): :func:`~hybridlog.estimators.registry.prepare` refuses
+it, naming the model file's ``[estimators.<name>]`` table, before any log is read.
+
 An options dataclass may say which of its options have no effect: ``inert(self, model)``
 (name → why) those the other options' values or the model leave unread (``--set`` of one is
 refused), and a classmethod ``inert_on(cls, model)`` those the model alone leaves unread,

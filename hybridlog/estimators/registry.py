@@ -222,6 +222,7 @@ class Estimator:
 
 _PER_SAMPLE_CLASSIFIER = Capabilities(
     needs_linear_model=True,
+    needs_detectable=True,
     state_variances=False,
     no_smoothing="it classifies each sample from its own regressor (paper 001 eqs. (2)-(3)): "
     "no mode chain and no likelihoods to smooth",
@@ -888,6 +889,7 @@ def prepare(
     given_by: str = "--estimator",
     overrides_by: str = "--set",
     flags: Mapping[str, str] | None = None,
+    complete: bool = True,
 ) -> Prepared:
     """Resolve an estimator and its options for ``model`` before any log is read.
 
@@ -904,13 +906,19 @@ def prepare(
     flags:
         The overrides a flag of their own gave (``smooth``: ``--smooth``), as messages and
         :attr:`Prepared.origins` name them instead of ``overrides_by``.
+    complete:
+        Refuse options that leave the estimator without something it needs (their
+        ``missing()``: ``sliding-mode`` without ``v_max`` or ``drift_bound``), as a run
+        would; ``False`` where a command line may still give it (``hybridlog models FILE``,
+        which reads no log).
 
     Raises
     ------
     ModelError
         The model file names an unknown estimator (``default_estimator``, an
-        ``[estimators.<x>]`` table), gives a bad option value, or the model lacks what the
-        estimator needs (one line naming the file, the key and the estimator).
+        ``[estimators.<x>]`` table), gives a bad option value, the model lacks what the
+        estimator needs, or (with ``complete``) the options leave it without a value it
+        needs (one line naming the file, the key and the estimator).
     OptionError
         An unknown estimator name or a bad override (naming ``given_by``/``overrides_by``);
         a ``name`` that is not a ``str``, or ``overrides`` not a mapping of option names
@@ -952,6 +960,9 @@ def prepare(
         sources[k] = OptionSource(flag) if flag else OptionSource.command_line(overrides_by, k, v)
     options = estimator.parse_options({**from_file, **overrides}, sources)
     refuse_invalid(options, model, name, sources, overrides)  # the file's: check_table
+    missing = getattr(options, "missing", None) if complete else None
+    if missing is not None and (why := missing()) is not None:
+        raise model.error(f"estimators.{name}", why)
     return Prepared(estimator, options, {k: source.label for k, source in sources.items()})
 
 

@@ -106,11 +106,7 @@ def gain(model: HybridModel, options: SlidingModeOptions) -> float:
     if options.v_max is not None:
         return options.v_max
     if options.drift_bound is None:
-        raise model.error(
-            "estimators.sliding-mode",
-            "sliding-mode needs the gain V_M: set v_max, or drift_bound (Φ̄ of eq. (19)) and "
-            "gamma (Γ of eq. (21)); --set v_max=... works too",
-        )
+        raise model.error("estimators.sliding-mode", options.missing() or "")
     return options.gamma * options.drift_bound
 
 

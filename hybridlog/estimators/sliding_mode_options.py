@@ -63,6 +63,20 @@ class SlidingModeOptions:
         above=True,  # 0 never passes: the first samples are never vouched for
     )
 
+    def missing(self) -> str | None:
+        """Why these values give no gain ``V_M`` (neither ``v_max`` nor ``drift_bound``), or None.
+
+        Found by :func:`~hybridlog.estimators.registry.prepare`, before any log is read:
+        the run found it only once the log had been read and aligned, and ``compare`` once
+        the estimators before it had run.
+        """
+        if self.v_max is not None or self.drift_bound is not None:
+            return None
+        return (
+            "sliding-mode needs the gain V_M: set v_max, or drift_bound (Φ̄ of eq. (19)) and "
+            "gamma (Γ of eq. (21)); --set v_max=... works too"
+        )
+
     @classmethod
     def inert_on(cls, model: HybridModel) -> dict[str, str]:
         """Options that ``model`` leaves unread whatever the others say: name → why.

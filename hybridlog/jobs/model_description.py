@@ -59,10 +59,11 @@ def check_and_describe(path: Path) -> str:
     # as analyze without --estimator: a default_estimator the file writes must run the model;
     # where it writes none and the default cannot run it, analyze needs --estimator
     unwritten_and_unsuited = model.default_estimator is None and default not in suited
-    prepared = [] if unwritten_and_unsuited else [prepare(model, None)]
+    # complete=False: a value the options still lack (sliding-mode's v_max) --set may give
+    prepared = [] if unwritten_and_unsuited else [prepare(model, None, complete=False)]
     for name in suited:  # reads its [estimators.<name>] table as analyze would
         if name != default:
-            prepared.append(prepare(model, name))
+            prepared.append(prepare(model, name, complete=False))
     for each in prepared:  # the files a table names (centers = "c.json"), read and checked
         estimator_inputs(each, model)
     if unwritten_and_unsuited:

@@ -15,8 +15,9 @@ engineer checks before running an estimator over thousands of logs:
   basis, which :math:`A` leaves invariant) are the modes' unobservable eigenvalues; one on or
   outside the stability boundary makes the mode not *detectable*: an estimator's error
   along it never decays in that mode (paper 001's LMI (15) then has no solution where
-  :math:`|\lambda| \ge 1`, and ``chiu``/``kmeans`` refuse the model at run time; just inside
-  the circle it has one, whose error there shrinks only by :math:`|\lambda|` a sample);
+  :math:`|\lambda| \ge 1`, and ``chiu``/``kmeans`` refuse the model before any log is
+  read; just inside the circle it has one, whose error there shrinks only by
+  :math:`|\lambda|` a sample);
 * **the switched system's observability**: the states no output determines in any mode nor
   across switches.  With every mode linear and no jump maps, the observable subspace is the
   smallest one holding the rows of every :math:`C_q` (and a unit row per state a guard reads:

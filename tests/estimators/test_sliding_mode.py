@@ -261,8 +261,8 @@ def test_a_d_singular_at_every_state_is_refused_before_any_log_is_read(dx, h, ra
     ):
         prepare(parse_model(text), "sliding-mode")
     full = text.replace('"-x2"]', '"-x2 + x1*V"]')
-    if "2*V" in dx:  # V now also drives x2: full rank
-        prepare(parse_model(full), "sliding-mode")
+    if "2*V" in dx:  # V now also drives x2: full rank (and a gain, which prepare needs too)
+        prepare(parse_model(full), "sliding-mode", {"v_max": "1"})
 
 
 def test_a_d_that_acts_only_far_from_the_initial_state_is_not_refused():
@@ -274,7 +274,7 @@ def test_a_d_that_acts_only_far_from_the_initial_state_is_not_refused():
         '[dynamics]\ndx = ["q - Piecewise(0.5*sqrt(H), H > 3, 0)*U"]\nh = ["H"]\n'
         "[initial]\nstate = [0.2]\n"
     )
-    prepare(parse_model(text), "sliding-mode")
+    prepare(parse_model(text), "sliding-mode", {"v_max": "1"})
 
 
 SCALAR = """
@@ -612,3 +612,25 @@ def test_the_unvouched_refusal_counts_its_reasons_in_samples(outside, slipping, 
             f"|D⁺ė| ≥ 0.5 in 0.02 s either side, σ̂ settling, or in the first) on {slipping:,} "
             "sample"
         ) in message
+
+
+def test_a_missing_gain_is_refused_before_any_log_is_read(tmp_path, capsys):
+    # without v_max or drift_bound there is no V_M: analyze read and aligned the whole log
+    # (compare ran the estimators before it) and only then refused; models FILE, which
+    # reads no log, still calls such a file valid, as --set v_max=... completes it
+    model = parse_model(VALVES_BOOLEAN, origin="v.toml")
+    with pytest.raises(
+        ModelError, match=r"^v\.toml: estimators\.sliding-mode: sliding-mode needs the gain V_M"
+    ):
+        prepare(model, "sliding-mode")
+    assert prepare(model, "sliding-mode", {"v_max": "0.5"}).options.v_max == 0.5
+    assert prepare(model, "sliding-mode", {"drift_bound": "0.5"}).options.drift_bound == 0.5
+    path = tmp_path / "v.toml"
+    path.write_text(VALVES_BOOLEAN, encoding="utf-8")
+    assert "estimators for it: sliding-mode" in check_and_describe(path).splitlines()
+    log = tmp_path / "not_a_log.csv"
+    log.write_text("garbage\n1\n", encoding="utf-8")
+    args = ["analyze", str(log), "--model", str(path), "--estimator", "sliding-mode"]
+    code, printed = run_main([*args, "--out", str(tmp_path / "out")], capsys)
+    assert code == 2 and not (tmp_path / "out").exists()
+    assert "the gain V_M" in printed and "not_a_log" not in printed

@@ -257,3 +257,30 @@ def test_an_unseen_eigenvalue_just_inside_the_circle_is_not_said_to_be_refused()
     assert observer_gains(A, C, ("a", "b")).margin > 0
     # at or past 1 the warning still says the mode is refused, as the LMI does
     assert "chiu and kmeans refuse the mode" in diagnoses(UNSEEN.replace("1.02]]", "1.0]]"))[-1]
+
+
+def test_chiu_and_kmeans_refuse_an_undetectable_mode_before_any_log_is_read(tmp_path: Path) -> None:
+    """An unseen eigenvalue of size >= 1 leaves the LMI (15) no gain, whatever the log.
+
+    ``analyze --estimator chiu`` read and clustered the whole log before the LMI refused the
+    model, and ``hybridlog models FILE`` listed chiu and kmeans among its estimators in the
+    line above its own warning that they refuse the mode.  Just inside the circle (0.9999)
+    the LMI has a gain and both still run.
+    """
+    from hybridlog.errors import ModelError
+
+    for size in ("1.02", "1.0"):
+        model = parse_model(UNSEEN.replace("1.02]]", f"{size}]]"))
+        for name in ("chiu", "kmeans"):
+            with pytest.raises(ModelError, match=r"needs every mode detectable") as refused:
+                prepare(model, name)
+            assert f"mode 'a' has the eigenvalue {size.rstrip('0').rstrip('.')}" in str(
+                refused.value
+            )
+    path = tmp_path / "unseen.toml"
+    path.write_text(UNSEEN, encoding="utf-8")
+    listed = [line for line in check_and_describe(path).splitlines() if "estimators for" in line]
+    assert listed == ["estimators for it: hstf, imm"]
+    inside = parse_model(UNSEEN.replace("1.02]]", "0.9999]]"))
+    for name in ("chiu", "kmeans"):
+        prepare(inside, name)
