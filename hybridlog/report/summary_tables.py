@@ -7,6 +7,7 @@ same decimals down a column); :func:`write_summary_csv` keeps the raw values.
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -110,18 +111,29 @@ def markdown_table(
 
 
 def write_summary_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
-    """A small summary table as CSV: raw values, an empty cell for a missing one.
+    r"""A small summary table as CSV: raw values, an empty cell for a missing one.
 
     Written with :mod:`csv` (quoting as RFC 4180 asks, newline line ends), not polars: the
     batch process of ``batch --jobs N`` writes ``summary.csv`` and otherwise needs no polars
     (:mod:`hybridlog.jobs.batch`), for a table of one row per log.  Floats are written with
     their shortest round-trip digits (``repr``), booleans as ``true``/``false``, non-finite
     floats as ``NaN``/``inf``/``-inf``: what polars reads back as the same values.
+
+    Each row is made with ``\r\n`` line ends, which end in ``\n``: :mod:`csv` quotes a
+    cell only for the characters of its own line end, and with ``\n`` alone a log named
+    with a carriage return was written bare, a line break to every reader (the csv module,
+    polars and spreadsheets split the row there).
     """
+    row_text = io.StringIO()
+    writer = csv.writer(row_text, lineterminator="\r\n")
     with path.open("w", encoding="utf-8", newline="") as file:
-        writer = csv.writer(file, lineterminator="\n")
-        writer.writerow(header)
-        writer.writerows([_csv_cell(value) for value in row] for row in rows)
+        cells: list[list[object]] = [list(header)]
+        cells += ([_csv_cell(value) for value in row] for row in rows)
+        for row in cells:
+            row_text.seek(0)
+            row_text.truncate()
+            writer.writerow(row)
+            file.write(row_text.getvalue()[:-2] + "\n")
 
 
 def _csv_cell(value: object) -> object:
