@@ -85,14 +85,24 @@ def _column_format(values: Sequence[object], *, distinct: bool) -> Callable[[obj
 
 
 def markdown_table(
-    header: Sequence[str], rows: Sequence[Sequence[object]], *, distinct: bool = False
+    header: Sequence[str],
+    rows: Sequence[Sequence[object]],
+    *,
+    distinct: bool = False,
+    escape_header: bool = True,
 ) -> str:
     """A GitHub-flavoured Markdown table, numbers formatted per column for people.
 
     Columns holding numbers are right-aligned; see :func:`_column_format` for the digits.
     ``distinct``: different values of a column never print alike (a few rows compared side by
     side, as ``compare``'s; a batch of many logs would grow every column's digits).
+    The header's cells are text, escaped as the rows' are: a column named after a state
+    ``_x_`` (``state_rmse._x_``) read ``state_rmse.`` and an emphasised ``x`` in
+    comparison.md; ``escape_header=False`` for a header of fixed words written as Markdown
+    (``cluster``'s on the terminal).
     """
+    if escape_header:
+        header = [escape_markdown(name, line_start=False) for name in header]
     formats = [
         _column_format([row[j] for row in rows], distinct=distinct) for j in range(len(header))
     ]
