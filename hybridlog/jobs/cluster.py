@@ -748,6 +748,7 @@ def discover_modes(
             f"centre [{', '.join(fitted.regressors)}]",
         ),
         rows,
+        escape_header=False,  # the terminal's: P*/P1* as it is
     )
     alerts, read_notes = reading_said(reading, _left_out(signals, fitted.spec))
     if few is not None:

@@ -7,6 +7,7 @@ same decimals down a column); :func:`write_summary_csv` keeps the raw values.
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -84,14 +85,24 @@ def _column_format(values: Sequence[object], *, distinct: bool) -> Callable[[obj
 
 
 def markdown_table(
-    header: Sequence[str], rows: Sequence[Sequence[object]], *, distinct: bool = False
+    header: Sequence[str],
+    rows: Sequence[Sequence[object]],
+    *,
+    distinct: bool = False,
+    escape_header: bool = True,
 ) -> str:
     """A GitHub-flavoured Markdown table, numbers formatted per column for people.
 
     Columns holding numbers are right-aligned; see :func:`_column_format` for the digits.
     ``distinct``: different values of a column never print alike (a few rows compared side by
     side, as ``compare``'s; a batch of many logs would grow every column's digits).
+    The header's cells are text, escaped as the rows' are: a column named after a state
+    ``_x_`` (``state_rmse._x_``) read ``state_rmse.`` and an emphasised ``x`` in
+    comparison.md; ``escape_header=False`` for a header of fixed words written as Markdown
+    (``cluster``'s on the terminal).
     """
+    if escape_header:
+        header = [escape_markdown(name, line_start=False) for name in header]
     formats = [
         _column_format([row[j] for row in rows], distinct=distinct) for j in range(len(header))
     ]
@@ -110,18 +121,29 @@ def markdown_table(
 
 
 def write_summary_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[object]]) -> None:
-    """A small summary table as CSV: raw values, an empty cell for a missing one.
+    r"""A small summary table as CSV: raw values, an empty cell for a missing one.
 
     Written with :mod:`csv` (quoting as RFC 4180 asks, newline line ends), not polars: the
     batch process of ``batch --jobs N`` writes ``summary.csv`` and otherwise needs no polars
     (:mod:`hybridlog.jobs.batch`), for a table of one row per log.  Floats are written with
     their shortest round-trip digits (``repr``), booleans as ``true``/``false``, non-finite
     floats as ``NaN``/``inf``/``-inf``: what polars reads back as the same values.
+
+    Each row is made with ``\r\n`` line ends, which end in ``\n``: :mod:`csv` quotes a
+    cell only for the characters of its own line end, and with ``\n`` alone a log named
+    with a carriage return was written bare, a line break to every reader (the csv module,
+    polars and spreadsheets split the row there).
     """
+    row_text = io.StringIO()
+    writer = csv.writer(row_text, lineterminator="\r\n")
     with path.open("w", encoding="utf-8", newline="") as file:
-        writer = csv.writer(file, lineterminator="\n")
-        writer.writerow(header)
-        writer.writerows([_csv_cell(value) for value in row] for row in rows)
+        cells: list[list[object]] = [list(header)]
+        cells += ([_csv_cell(value) for value in row] for row in rows)
+        for row in cells:
+            row_text.seek(0)
+            row_text.truncate()
+            writer.writerow(row)
+            file.write(row_text.getvalue()[:-2] + "\n")
 
 
 def _csv_cell(value: object) -> object:

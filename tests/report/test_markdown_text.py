@@ -72,3 +72,26 @@ def test_control_characters_are_written_out_not_sent_to_the_terminal() -> None:
     assert cell == "ctl\\x01\\x1b[31mred\\x7f.csv"
     assert code_span("a\x1bb") == "`a\\x1bb`"
     assert escape_markdown("tab\there") == "tab\there"  # a tab is no command
+
+
+def _header_cells(markdown: str) -> list[str]:
+    """The text of each header cell; a cell holding anything but plain text fails the test."""
+    tokens = PARSER.parse(markdown)
+    cells = []
+    for before, token in pairwise(tokens):
+        if before.type == "th_open" and token.type == "inline":
+            kinds = {child.type for child in token.children or []}
+            assert kinds <= {"text"}, (markdown, kinds)
+            cells.append("".join(child.content for child in token.children or []))
+    return cells
+
+
+def test_a_header_cell_named_after_a_symbol_shows_its_name() -> None:
+    """comparison.md's column of a state ``_x_`` read ``state_rmse.`` and an emphasised x, a
+    column ``state_rmse.__a__`` a bold a; summary.md's gated column likewise."""
+    header = ["estimator", "state_rmse._x_", "state_rmse.__a__", "mode_accuracy.*c*"]
+    table = markdown_table(header, [["imm", 0.5, 0.25, 1.0]])
+    assert _header_cells(table) == header
+    assert table.splitlines()[0].startswith("| estimator | state_rmse.\\_x\\_ |")
+    plain = markdown_table(["P*/P1*"], [[1.0]], escape_header=False)  # cluster's terminal
+    assert plain.splitlines()[0] == "| P*/P1* |"

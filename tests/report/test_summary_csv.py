@@ -2,12 +2,13 @@
 
 The batch process writes summary.csv without polars (:func:`write_summary_csv`); what a
 user's polars (or any CSV reader) reads must be the values given: text with commas,
-quotes and line breaks, integers, floats of every size and the non-finite ones, booleans,
-and missing cells.
+quotes and line breaks (a carriage return too), integers, floats of every size and the
+non-finite ones, booleans, and missing cells.
 """
 
 from __future__ import annotations
 
+import csv
 import math
 import tempfile
 from pathlib import Path
@@ -18,7 +19,7 @@ from hypothesis import strategies as st
 
 from hybridlog.report.summary_tables import write_summary_csv
 
-TEXT = st.text(alphabet=st.sampled_from("abcXYZ019 ,;\"'\n\té…"), min_size=1, max_size=12).filter(
+TEXT = st.text(alphabet=st.sampled_from("abcXYZ019 ,;\"'\n\r\té…"), min_size=1, max_size=12).filter(
     lambda s: s.strip() == s and s.strip()
 )  # an empty cell is a missing value
 KINDS = {
@@ -71,3 +72,19 @@ def test_cells_as_written(tmp_path: Path) -> None:
     assert path.read_text(encoding="utf-8") == (
         'log,samples,mse,vaf,ok,x,y\n"a,b",300,1e-05,,true,NaN,-inf\n'
     )
+
+
+def test_a_carriage_return_is_quoted(tmp_path: Path) -> None:
+    # csv.writer quotes only the characters of its own line end: with "\n" a log named
+    # "a\rb.csv" was written bare, and every reader split its row in two
+    path = tmp_path / "summary.csv"
+    write_summary_csv(path, ["log", "folder"], [["/logs/a\rb.csv", "a\rb.csv"], ["c.csv", "c.csv"]])
+    text = path.read_bytes().decode("utf-8")
+    assert text == 'log,folder\n"/logs/a\rb.csv","a\rb.csv"\nc.csv,c.csv\n'
+    with path.open(encoding="utf-8", newline="") as file:
+        assert list(csv.reader(file)) == [
+            ["log", "folder"],
+            ["/logs/a\rb.csv", "a\rb.csv"],
+            ["c.csv", "c.csv"],
+        ]
+    assert pl.read_csv(path)["log"].to_list() == ["/logs/a\rb.csv", "c.csv"]
