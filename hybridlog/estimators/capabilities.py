@@ -549,23 +549,19 @@ class ModelTraits:
         read and clustered the whole log before refusing such a model, and ``hybridlog
         models FILE`` listed them among its estimators in the line above its own warning
         that they refuse the mode.  Judged as that warning judges it
-        (:func:`~hybridlog.model.diagnosis.unobservable_basis`: the eigenvalues of ``A`` on
-        the null space of the observability matrix); ``None`` also for a model with a mode
-        that is not linear (refused for that first).
+        (:mod:`hybridlog.model.observability`: the eigenvalues of ``A`` on the null space of
+        the observability matrix), from the matrices alone: no sympy, which a warm run's
+        model has not loaded; ``None`` also for a model with a mode that is not linear
+        (refused for that first).
         """
         forms = [mode.linear_form for mode in self.model.modes]
         if self.model.is_continuous or not forms or any(form is None for form in forms):
             return None
-        import numpy as np
-
-        from hybridlog.model.diagnosis import unobservable_basis
+        from hybridlog.model.observability import unobservable_basis, unseen_eigenvalues
 
         for mode, form in zip(self.model.modes, forms, strict=True):
             assert form is not None  # for mypy: checked above
-            basis = unobservable_basis(form.A, form.C)
-            if basis.shape[1] == 0:
-                continue
-            seen = [complex(v) for v in np.linalg.eigvals(basis.T @ form.A @ basis)]
+            seen = unseen_eigenvalues(form.A, unobservable_basis(form.A, form.C))
             slow = [v for v in seen if abs(v) >= 1.0]
             if slow:
                 worst = max(slow, key=abs)

@@ -53,10 +53,11 @@ import sympy
 
 from hybridlog.model.derivatives import jacobian
 from hybridlog.model.hybrid_model import HybridModel, Jump, Mode, Timebase
+from hybridlog.model.observability import RANK, null_space, unobservable_basis, unseen_eigenvalues
 from hybridlog.model.stability import step_flaw
 from hybridlog.signals import FloatArray
 
-__all__ = ["MARGIN", "MOST_LINES", "diagnose", "model_diagnoses", "unobservable_basis"]
+__all__ = ["MARGIN", "MOST_LINES", "diagnose", "model_diagnoses"]
 
 MARGIN = 1e-3
 r"""An eigenvalue counts as on the stability boundary within this much of it per sample:
@@ -65,9 +66,6 @@ r"""An eigenvalue counts as on the stability boundary within this much of it per
 undamped mode 1, printed to 4 digits (paper 001), has :math:`|\lambda| = 1 \pm 3.4 \cdot
 10^{-5}`."""
 
-_RANK = float(np.sqrt(np.finfo(np.float64).eps))
-"""Singular values below this fraction of the largest count as zero (matrices given to a few
-digits are exact to far more than this in their rank)."""
 
 MOST_LINES = 12
 """Most lines of modes' findings :func:`diagnose` gives (the last one counting the others)."""
@@ -323,7 +321,7 @@ def _undamped(form: _Linearised, timebase: Timebase) -> list[_Finding]:
             continue
         pencil = np.hstack([value * np.eye(n) - form.A, root.astype(np.complex128)])
         singular = np.linalg.svd(pencil, compute_uv=False)
-        if singular[-1] <= _RANK * max(1.0, float(np.linalg.norm(form.A, 2))):
+        if singular[-1] <= RANK * max(1.0, float(np.linalg.norm(form.A, 2))):
             unreached.append(complex(value))
     if not unreached:
         return []
@@ -339,10 +337,7 @@ def _undamped(form: _Linearised, timebase: Timebase) -> list[_Finding]:
 
 def _lasting(A: FloatArray, basis: FloatArray, timebase: Timebase) -> list[complex]:
     """The eigenvalues of ``A`` on the unobservable subspace that do not decay."""
-    if basis.shape[1] == 0:
-        return []
-    values = (complex(v) for v in np.linalg.eigvals(basis.T @ A @ basis))
-    return [v for v in values if not _decays(v, timebase)]
+    return [v for v in unseen_eigenvalues(A, basis) if not _decays(v, timebase)]
 
 
 def _decays(value: complex, timebase: Timebase) -> bool:
@@ -353,7 +348,7 @@ def _decays(value: complex, timebase: Timebase) -> bool:
 
 
 def _number(value: complex) -> str:
-    if abs(value.imag) <= _RANK * abs(value):
+    if abs(value.imag) <= RANK * abs(value):
         return f"{value.real:.4g}"
     return f"{value.real:.4g}{'+' if value.imag >= 0 else '-'}{abs(value.imag):.4g}j"
 
@@ -365,31 +360,9 @@ def _square_root(covariance: FloatArray) -> FloatArray:
     return result
 
 
-def unobservable_basis(A: FloatArray, C: FloatArray) -> FloatArray:
-    r"""An orthonormal basis ``(n, k)`` of the null space of :math:`[C; CA; \dots; CA^{n-1}]`.
-
-    ``A`` is divided by its spectral norm first (when above 1): the null space is the same,
-    and the powers stay in range.
-    """
-    n = A.shape[0]
-    scaled = A / max(1.0, float(np.linalg.norm(A, 2)))
-    blocks = [C]
-    for _ in range(n - 1):
-        blocks.append(blocks[-1] @ scaled)
-    return _null_space(np.vstack(blocks))
-
-
-def _null_space(matrix: FloatArray) -> FloatArray:
-    _, singular, vt = np.linalg.svd(matrix)
-    largest = singular[0] if singular.size else 0.0
-    rank = int(np.sum(singular > _RANK * largest)) if largest > 0.0 else 0
-    basis: FloatArray = vt[rank:].T
-    return basis
-
-
 def _components(basis: FloatArray) -> list[int]:
     """The states with a component along the subspace of ``basis``."""
-    return [i for i in range(basis.shape[0]) if np.linalg.norm(basis[i]) > _RANK]
+    return [i for i in range(basis.shape[0]) if np.linalg.norm(basis[i]) > RANK]
 
 
 def _reads_states(mode: Mode, states: Sequence[str]) -> bool:
@@ -486,7 +459,7 @@ def _joint_unobservable(forms: Sequence[_Linearised], guarded: set[int]) -> Floa
         if grown.shape[0] == span.shape[0]:
             break
         span = grown
-    return _null_space(span) if span.shape[0] else np.eye(n)
+    return null_space(span) if span.shape[0] else np.eye(n)
 
 
 def _row_basis(matrix: FloatArray) -> FloatArray:
@@ -494,7 +467,7 @@ def _row_basis(matrix: FloatArray) -> FloatArray:
         return matrix
     _, singular, vt = np.linalg.svd(matrix, full_matrices=False)
     largest = singular[0] if singular.size else 0.0
-    rank = int(np.sum(singular > _RANK * largest)) if largest > 0.0 else 0
+    rank = int(np.sum(singular > RANK * largest)) if largest > 0.0 else 0
     basis: FloatArray = vt[:rank]
     return basis
 
