@@ -16,11 +16,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from mcap.writer import Writer as McapWriter
 from rosbags.rosbag1 import Writer as BagWriter
 from rosbags.typesys import Stores, get_typestore
 
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from tests.support.logfiles import write_levels_mcap
 
 DEFINITION = (
     "# A tank's level\r\nfloat64 cm\r\nstring NAME=tank\r\ntp/Inner inner\r\n"
@@ -44,20 +44,7 @@ def _bag(path: Path) -> Path:
 
 
 def _mcap(path: Path) -> Path:
-    header = b"\x00\x01\x00\x00"
-    with path.open("wb") as stream:
-        writer = McapWriter(stream)
-        writer.start(profile="ros2", library="test")
-        level = writer.register_schema("tp/msg/Level", "ros2msg", DEFINITION.encode())
-        number = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data")
-        inputs = writer.register_channel("/u", "cdr", number)
-        levels = writer.register_channel("/y", "cdr", level)
-        for k in range(STEPS):
-            t = 10**9 + k * 10**8
-            writer.add_message(inputs, t, header + struct.pack("<d", k), t)
-            writer.add_message(levels, t, header + struct.pack("<dd", k + 0.5, -k), t)
-        writer.finish()
-    return path
+    return write_levels_mcap(path, "tp/msg/Level", DEFINITION.encode(), STEPS)
 
 
 @pytest.mark.parametrize("log", ["crlf.bag", "crlf.mcap"])

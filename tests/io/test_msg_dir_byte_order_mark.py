@@ -8,32 +8,19 @@ of the first line.  It is skipped, as in a CSV log.
 
 from __future__ import annotations
 
-import struct
 from pathlib import Path
 
 import numpy as np
-from mcap.writer import Writer
 
 from hybridlog.io import ReadOptions, SignalSpec, load_signals
+from tests.support.logfiles import write_levels_mcap
 
 STEPS = 10
 
 
 def test_a_msg_file_with_a_byte_order_mark_defines_its_type(tmp_path: Path) -> None:
     log = tmp_path / "levels.mcap"
-    header = b"\x00\x01\x00\x00"
-    with log.open("wb") as stream:
-        writer = Writer(stream)
-        writer.start(profile="ros2", library="test")
-        level = writer.register_schema("tank_msgs/msg/Level", "ros2msg", b"")  # no definition
-        number = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data")
-        inputs = writer.register_channel("/u", "cdr", number)
-        levels = writer.register_channel("/y", "cdr", level)
-        for k in range(STEPS):
-            t = 10**9 + k * 10**8
-            writer.add_message(inputs, t, header + struct.pack("<d", k), t)
-            writer.add_message(levels, t, header + struct.pack("<dd", k + 0.5, -k), t)
-        writer.finish()
+    write_levels_mcap(log, "tank_msgs/msg/Level", b"", STEPS)  # no definition stored
     folder = tmp_path / "msgs" / "tank_msgs" / "msg"
     folder.mkdir(parents=True)
     (folder / "Level.msg").write_bytes(b"\xef\xbb\xbf# a level\r\nfloat64 cm\r\nfloat64 low\r\n")

@@ -244,6 +244,25 @@ def find(path: Path, needle: bytes, start: int = 0) -> int:
     return index
 
 
+def write_levels_mcap(path: Path, msgtype: str, definition: bytes, steps: int) -> Path:
+    """A ROS 2 MCAP file of ``/u`` (``Float64``, ``k``) and ``/y`` (``msgtype``: two float64s,
+    ``k + 0.5`` and ``-k``), a sample every 0.1 s from 1 s; ``definition`` stored as written."""
+    header = b"\x00\x01\x00\x00"  # CDR, little-endian
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="test")
+        level = writer.register_schema(msgtype, "ros2msg", definition)
+        number = writer.register_schema("std_msgs/msg/Float64", "ros2msg", b"float64 data")
+        inputs = writer.register_channel("/u", "cdr", number)
+        levels = writer.register_channel("/y", "cdr", level)
+        for k in range(steps):
+            t = NS + k * NS // 10
+            writer.add_message(inputs, t, header + struct.pack("<d", k), t)
+            writer.add_message(levels, t, header + struct.pack("<dd", k + 0.5, -k), t)
+        writer.finish()
+    return path
+
+
 def write_msg_dir(root: Path, package: str, name: str, text: str) -> Path:
     folder = root / package / "msg"
     folder.mkdir(parents=True, exist_ok=True)
