@@ -58,6 +58,41 @@ def test_an_option_of_one_value_given_twice_is_refused_in_every_command(
     assert code == 0 and err == ""
 
 
+def test_an_option_name_taken_as_a_value_is_refused_in_every_command(
+    hybridlog_main: Main, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # click took the next word whatever it was: `batch LOG --out --force` wrote a folder
+    # named --force and lost the --force asked for
+    monkeypatch.chdir(tmp_path)
+    checked = 0
+    for name, command in cli.commands.items():
+        for option in _options(command):
+            if option.is_flag or option.is_eager:
+                continue
+            for given in ("--force" if name != "inspect" else "--json", "-q", "--debug=1"):
+                code, err = hybridlog_main([name, "log.csv", option.opts[0], given])
+                hint = "/".join([*option.opts, *option.secondary_opts])
+                file = (
+                    f" (a file of that name: ./{given})"
+                    if isinstance(option.type, click.Path)
+                    else ""
+                )
+                assert (code, err) == (
+                    2,
+                    f"hybridlog {name}: {hint}: got {given!r}, which is an option of this "
+                    f"command: give {option.opts[0]} its value before it{file} "
+                    f"(see hybridlog {name} --help)\n",
+                ), (name, option.opts, given)
+                checked += 1
+    assert checked > 100
+    assert list(tmp_path.iterdir()) == []
+    # a file of such a name is given as ./NAME; a value that only starts with - is taken
+    code, err = hybridlog_main(["inspect", "./--json"])
+    assert (code, err) == (2, "hybridlog: error: --json: no such file\n")
+    code, err = hybridlog_main(["analyze", "log.csv", "--model", "m", "--max-gap", "-1"])
+    assert code == 2 and "--max-gap: expected a number from 0 to 1e+09, got -1" in err
+
+
 @pytest.mark.parametrize(
     ("args", "hint"),
     [
