@@ -240,6 +240,9 @@ class _Command(click.Command):
     another model, than one of the two said.  Repeatable options (``--set``, ``--map``, …)
     and plain switches given twice (``--force --force``: the same either way) are taken.
 
+    A usage error click's parser raises without the command (``--model`` at the end, its
+    value missing) is given it, so that the message names the command and its ``--help``.
+
     Nor is an option's value one of the command's option names: click took the next word
     whatever it was, so ``--out --force`` (the folder's name forgotten) wrote a folder named
     ``--force`` and lost the ``--force`` asked for, and ``--model -q`` read a model ``-q``.
@@ -247,6 +250,16 @@ class _Command(click.Command):
     """
 
     def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        try:
+            return self._parse_args(ctx, args)
+        except click.UsageError as err:
+            # click's parser raises some without the context (an option's value missing,
+            # `--force=1`): they named `hybridlog` and its --help, not the command's
+            if err.ctx is None:
+                err.ctx = ctx
+            raise
+
+    def _parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
         if args and not ctx.resilient_parsing:
             values, _, order = self.make_parser(ctx).parse_args(args=list(args))
             _refuse_option_names_as_values(self.get_params(ctx), values, ctx)

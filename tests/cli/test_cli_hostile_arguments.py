@@ -58,6 +58,28 @@ def test_an_option_of_one_value_given_twice_is_refused_in_every_command(
     assert code == 0 and err == ""
 
 
+def test_an_option_without_its_value_names_the_command_in_every_command(
+    hybridlog_main: Main,
+) -> None:
+    # `analyze LOG --model` said "hybridlog: option '--model' requires an argument (see
+    # hybridlog --help)": click's parser raised it without the command
+    for name, command in cli.commands.items():
+        for option in _options(command):
+            if option.is_eager:
+                continue
+            first = option.opts[0]
+            given, why = (
+                (f"{first}=1", "does not take a value")
+                if option.is_flag
+                else (first, "requires an argument")
+            )
+            code, err = hybridlog_main([name, "log.csv", given])
+            assert (code, err) == (
+                2,
+                f"hybridlog {name}: option {first!r} {why} (see hybridlog {name} --help)\n",
+            ), (name, given)
+
+
 def test_an_option_name_taken_as_a_value_is_refused_in_every_command(
     hybridlog_main: Main, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
