@@ -30,6 +30,7 @@ every error names the file as the user gave it.
 
 from __future__ import annotations
 
+import difflib
 import functools
 import hashlib
 import json
@@ -173,7 +174,22 @@ def model_file(name_or_path: str | Path) -> Path | None:
     known = ", ".join(builtin_names())
     shown = excerpt(name)  # quoted where blanks would not show: '' or ' x'
     shown = shown if name.strip() != name or not name else shown[1:-1]
-    raise ModelError(f"{shown}: neither a model file nor a built-in model (built-ins: {known})")
+    raise ModelError(
+        f"{shown}: neither a model file nor a built-in model (built-ins: {known})"
+        f"{_closest_builtin(name)}"
+    )
+
+
+def _closest_builtin(name: str) -> str:
+    """``"; did you mean 'x'?"`` for the built-in most like ``name`` (case and blanks aside).
+
+    ``--model three_tank`` or ``Three_Tank_HSTF`` listed the built-ins without a word, where
+    ``--estimator Imm`` suggests ``imm``.
+    """
+    names = {known.casefold(): known for known in builtin_names()}
+    key = name.strip().casefold()
+    found = [key] if key in names else difflib.get_close_matches(key, list(names), n=1)
+    return f"; did you mean '{names[found[0]]}'?" if found else ""
 
 
 def _check_not_shadowing(path: Path, name: str) -> None:

@@ -190,3 +190,23 @@ def test_the_checked_columns_are_those_a_smoothed_run_writes(tmp_path):
     ):
         header = (out / f"{table}.csv").read_text().splitlines()[0].split(",")
         assert set(header) == expected[table] | fixed
+
+
+@pytest.mark.parametrize(
+    ("given", "meant"),
+    [
+        ("three_tank", "three_tank_hstf"),
+        ("Three_Tank_HSTF", "three_tank_hstf"),
+        (" ice_clutch", "ice_clutch"),
+        ("doublecart_case1", "double_cart_case1"),
+    ],
+)
+def test_a_model_name_close_to_a_built_in_is_suggested(tmp_path, monkeypatch, given, meant):
+    # --model three_tank listed the built-ins without a word; --estimator Imm suggests imm
+    from hybridlog.model.cache import model_file
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ModelError, match=rf"\(built-ins: [^)]*\); did you mean '{meant}'\?$"):
+        model_file(given)
+    with pytest.raises(ModelError, match=r"\(built-ins: [^)]*\)$"):
+        model_file("xyz")
