@@ -155,7 +155,8 @@ def model_file(name_or_path: str | Path) -> Path | None:
     Raises
     ------
     ModelError
-        When it names neither a file nor a built-in (a folder, a missing ``.toml`` file),
+        When it names neither a file nor a built-in (a folder, a missing ``.toml`` file, a
+        symbolic link to nothing or a loop: said so, not as an unknown built-in),
         and when a built-in's bare name also names a file that does not hold that built-in
         (:func:`_check_not_shadowing`; ``./NAME`` names the file alone).
     """
@@ -169,6 +170,14 @@ def model_file(name_or_path: str | Path) -> Path | None:
         return None
     if path.exists():
         raise ModelError(f"{path}: not a model file (a folder or a special file)")
+    if path.is_symlink():  # to nothing, or a loop: the link is there, its file is not
+        try:
+            path.stat()
+        except FileNotFoundError:
+            target = excerpt(os.readlink(path))
+            raise ModelError(f"{path}: a symbolic link to {target}, which does not exist") from None
+        except OSError as err:
+            raise ModelError(f"{path}: cannot be read ({err.strerror})") from None
     if path.suffix == ".toml":
         raise ModelError(f"{path}: no such model file")
     known = ", ".join(builtin_names())

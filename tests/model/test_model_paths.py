@@ -210,3 +210,16 @@ def test_a_model_name_close_to_a_built_in_is_suggested(tmp_path, monkeypatch, gi
         model_file(given)
     with pytest.raises(ModelError, match=r"\(built-ins: [^)]*\)$"):
         model_file("xyz")
+
+
+def test_a_model_link_to_nothing_or_a_loop_is_said_so(tmp_path):
+    # --model LINK said "LINK: neither a model file nor a built-in model (built-ins: ...)"
+    from hybridlog.model.cache import model_file
+
+    (tmp_path / "dangling.toml").symlink_to("gone.toml")
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    with pytest.raises(ModelError, match=r"dangling.toml: a symbolic link to 'gone.toml', which"):
+        model_file(tmp_path / "dangling.toml")
+    with pytest.raises(ModelError, match=r"/a: cannot be read \(Too many levels of symbolic"):
+        model_file(tmp_path / "a")
