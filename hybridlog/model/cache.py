@@ -146,6 +146,12 @@ def load_model_set(name_or_path: str | Path, texts: Mapping[str, str]) -> Hybrid
         raise OptionError(f"--set {given}: {err}", named=texts) from None
 
 
+_LOG_SUFFIXES = (".csv", ".parquet", ".mcap", ".bag", ".db3")
+"""Suffixes of the logs hybridlog reads: a file of one given as a model is a log (a log and
+its model swapped, ``--model run.mcap MODEL``), which read as TOML said ``line 1: not UTF-8
+(byte 0x89); save the file as UTF-8``."""
+
+
 def model_file(name_or_path: str | Path) -> Path | None:
     """The model file ``name_or_path`` names, or ``None`` when it names a built-in.
 
@@ -158,13 +164,19 @@ def model_file(name_or_path: str | Path) -> Path | None:
         When it names neither a file nor a built-in (a folder, a missing ``.toml`` file, a
         symbolic link to nothing or a loop: said so, not as an unknown built-in),
         and when a built-in's bare name also names a file that does not hold that built-in
-        (:func:`_check_not_shadowing`; ``./NAME`` names the file alone).
+        (:func:`_check_not_shadowing`; ``./NAME`` names the file alone), and a log's file
+        (:data:`_LOG_SUFFIXES`).
     """
     path = Path(name_or_path)
     name = str(name_or_path)
     if path.is_file():
         if name in builtin_names():
             _check_not_shadowing(path, name)
+        if path.suffix.lower() in _LOG_SUFFIXES:
+            raise ModelError(
+                f"{path}: a log ({path.suffix}), not a model file (TOML): are the log and "
+                "the model swapped?"
+            )
         return path
     if name in builtin_names():
         return None

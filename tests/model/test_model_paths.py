@@ -223,3 +223,14 @@ def test_a_model_link_to_nothing_or_a_loop_is_said_so(tmp_path):
         model_file(tmp_path / "dangling.toml")
     with pytest.raises(ModelError, match=r"/a: cannot be read \(Too many levels of symbolic"):
         model_file(tmp_path / "a")
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet", ".mcap", ".bag", ".db3", ".MCAP"])
+def test_a_log_given_as_the_model_is_said_to_be_a_log(tmp_path, suffix):
+    # analyze --model run.mcap MODEL said "line 1: not UTF-8 (byte 0x89); save the file as UTF-8"
+    from hybridlog.model.cache import model_file
+
+    log = tmp_path / f"run{suffix}"
+    log.write_bytes(b"\x89MCAP0\r\n")
+    with pytest.raises(ModelError, match=rf"run\{suffix}: a log \(\{suffix}\), not a model file"):
+        model_file(log)
