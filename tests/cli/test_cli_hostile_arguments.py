@@ -237,3 +237,24 @@ def test_a_removed_working_folder_is_said_in_words(
         "hybridlog: error: the working folder no longer exists (removed while the shell was "
         "in it); change to an existing folder and run again\n",
     )
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (
+            ["batch", "log.csv", "--model", "m", "--out", "o", "--plots", "\udcff"],
+            "hybridlog batch: --plots: '\\xff' is not one of 'none', 'failed', 'all' "
+            "(see hybridlog batch --help)\n",
+        ),
+        (
+            ["analyze", "log.csv", "--model", "three_tank_hstf", "--fail-under", "vaf=\udcff"],
+            "hybridlog: error: --fail-under 'vaf=\\xff': bound '\\xff': expected a finite number\n",
+        ),
+    ],
+)
+def test_a_byte_that_is_not_utf8_is_shown_as_typed_in_every_message(
+    hybridlog_main: Main, args: list[str], said: str
+) -> None:
+    # messages that quoted a value with repr read '\udcff' for the byte 0xff typed
+    assert hybridlog_main(args) == (2, said)
