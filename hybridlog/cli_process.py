@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import errno
 import gc
 import importlib
 import os
@@ -28,7 +29,7 @@ import click
 from hybridlog.allocators import return_freed_memory
 from hybridlog.background import ESTIMATES, PLOTS, start_worker
 from hybridlog.cli_lines import one_line
-from hybridlog.errors import HybridlogError, as_text
+from hybridlog.errors import HybridlogError, as_text, excerpt
 from hybridlog.launch import lost_output, single_threaded_blas, tolerate_closed_output
 from hybridlog.limits import limit_reached
 
@@ -305,6 +306,15 @@ def _failure(err: Exception) -> str:
         )
     if isinstance(err, OSError) and (limit := limit_reached(err)) is not None:
         return f"hybridlog: error: {limit.what}{_where(err)} ({limit.detail}); {limit.advice}"
+    if isinstance(err, OSError) and err.errno == errno.ENAMETOOLONG and err.filename:
+        # a name given (--model, --junit, --msg-dir, a centres file) that the system refuses
+        # to look up: pathlib's is_file() and exists() raise it, where they answer False
+        # for a missing file; it was "unexpected OSError ... (a bug ...)"
+        name = excerpt(os.fsdecode(err.filename))
+        return (
+            f"hybridlog: error: {name}: the name is too long for the file system "
+            f"({err.strerror}); give a shorter one"
+        )
     return (
         f"hybridlog: error: unexpected {type(err).__name__}{_where(err)}: {err} "
         "(a bug, or an input hybridlog does not check yet; --debug shows the traceback)"

@@ -15,6 +15,7 @@ import pytest
 
 from hybridlog.cli import cli
 from hybridlog.cli_types import _expand_tilde
+from tests.support.paths import SAMPLE_LOGS
 
 Main = Callable[[list[str]], tuple[int, str]]
 
@@ -258,3 +259,34 @@ def test_a_byte_that_is_not_utf8_is_shown_as_typed_in_every_message(
 ) -> None:
     # messages that quoted a value with repr read '\udcff' for the byte 0xff typed
     assert hybridlog_main(args) == (2, said)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["models", "a" * 300],
+        ["simulate", "a" * 300, "--out", "x.csv"],
+        ["inspect", "log.csv", "--msg-dir", "a" * 300],
+        [
+            "analyze",
+            str(SAMPLE_LOGS / "double_cart_case1.csv"),
+            "--model",
+            "double_cart_case1",
+            "--estimator",
+            "chiu",
+            "--set",
+            f"centers={'a' * 300}.json",
+        ],
+    ],
+)
+def test_a_name_too_long_for_the_file_system_is_named_not_called_a_bug(
+    hybridlog_main: Main, args: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # pathlib's is_file() raises ENAMETOOLONG: "unexpected OSError in cache.py:172 (a bug ...)"
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "log.csv").write_text("t,u,y\n0,1,2\n")
+    code, err = hybridlog_main(args)
+    assert code == 2
+    assert err.startswith("hybridlog: error: 'aaaa") and err.endswith(
+        "': the name is too long for the file system (File name too long); give a shorter one\n"
+    ), err
