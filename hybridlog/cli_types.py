@@ -246,7 +246,8 @@ class _Command(click.Command):
     Nor is an option's value one of the command's option names: click took the next word
     whatever it was, so ``--out --force`` (the folder's name forgotten) wrote a folder named
     ``--force`` and lost the ``--force`` asked for, and ``--model -q`` read a model ``-q``.
-    A file of such a name is still given as ``./--force``.
+    A value that starts with a short option (``--out -qh``: ``-q -h`` run together) is so
+    too.  A file of such a name is still given as ``./--force``.
     """
 
     def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
@@ -291,14 +292,20 @@ def _refuse_option_names_as_values(
             continue
         given = values[param.name]
         for value in given if isinstance(given, (list, tuple)) else [given]:
-            if isinstance(value, str) and value.partition("=")[0] in names:
+            if not isinstance(value, str):
+                continue
+            exact = value.partition("=")[0] in names
+            # -qh: short options run together, as click reads them where an option may stand
+            joined = value[1:2] not in ("", "-") and value[:2] in names
+            if exact or joined:
                 file = (
                     f" (a file of that name: ./{value})"
                     if isinstance(param.type, click.Path)
                     else ""
                 )
                 raise click.BadParameter(
-                    f"got {excerpt(value)}, which is an option of this command: give "
+                    f"got {excerpt(value)}, which {'is' if exact else 'starts with'} an "
+                    "option of this command: give "
                     f"{param.opts[0]} its value before it{file}",
                     ctx=ctx,
                     param=param,

@@ -110,6 +110,13 @@ def test_an_option_name_taken_as_a_value_is_refused_in_every_command(
     assert checked > 100
     assert list(tmp_path.iterdir()) == []
     # a file of such a name is given as ./NAME; a value that only starts with - is taken
+    code, err = hybridlog_main(["analyze", "log.csv", "--model", "m", "--out", "-qh"])
+    assert (code, err) == (
+        2,
+        "hybridlog analyze: --out: got '-qh', which starts with an option of this command: "
+        "give --out its value before it (a file of that name: ./-qh) "
+        "(see hybridlog analyze --help)\n",
+    )
     code, err = hybridlog_main(["inspect", "./--json"])
     assert (code, err) == (2, "hybridlog: error: --json: no such file\n")
     code, err = hybridlog_main(["analyze", "log.csv", "--model", "m", "--max-gap", "-1"])
