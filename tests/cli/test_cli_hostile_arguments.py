@@ -297,3 +297,30 @@ def test_a_name_too_long_for_the_file_system_is_named_not_called_a_bug(
     assert err.startswith("hybridlog: error: 'aaaa") and err.endswith(
         "': the name is too long for the file system (File name too long); give a shorter one\n"
     ), err
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (
+            ["inspect", "log.csv", "--model", "m"],
+            "hybridlog inspect: no such option '--model' (an option of analyze, batch, "
+            "cluster and compare) (see hybridlog inspect --help)\n",
+        ),
+        (
+            ["--json", "inspect", "log.csv"],
+            "hybridlog: no such option '--json' (an option of inspect; give it after the "
+            "command) (see hybridlog --help)\n",
+        ),
+        (
+            ["compare", "log.csv", "--estimator", "imm"],
+            "hybridlog compare: no such option '--estimator' (an option of analyze and "
+            "batch); did you mean '--estimators'? (see hybridlog compare --help)\n",
+        ),
+    ],
+)
+def test_an_option_of_another_command_names_the_commands_that_have_it(
+    hybridlog_main: Main, args: list[str], said: str
+) -> None:
+    # inspect --model said "Did you mean '--help'?", hybridlog --json "Did you mean '--version'?"
+    assert hybridlog_main(args) == (2, said)
