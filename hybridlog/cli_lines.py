@@ -8,6 +8,7 @@ printable line of at most :data:`MAX_MESSAGE` characters), ``--quiet`` respected
 
 from __future__ import annotations
 
+import re
 import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
@@ -56,8 +57,20 @@ def for_terminal(text: str) -> str:
 
 
 def one_line(text: str) -> str:
-    """The final guard on everything printed to stderr: one printable, bounded line."""
-    return shortened(printable(" ".join(str(text).split())), MAX_MESSAGE)
+    r"""The final guard on everything printed to stderr: one printable, bounded line.
+
+    A byte that is not UTF-8 in what the user typed is shown ``\xNN``, as
+    :func:`~hybridlog.errors.excerpt` shows it, also where a message quoted the value with
+    ``repr`` (click's choices, ``--fail-under``, ``--map``'s column, a library's reason):
+    those read ``'\udcff'`` for the ``\xff`` typed, beside ``'\xff'`` in the same line.
+    """
+    line = _ESCAPED_BYTE.sub(r"\\x\1", printable(" ".join(str(text).split())))
+    return shortened(line, MAX_MESSAGE)
+
+
+_ESCAPED_BYTE = re.compile(r"(?<!\\)\\udc([89a-f][0-9a-f])")
+"""``repr``'s text of a byte that is not UTF-8 (a lone surrogate U+DC80-U+DCFF, as Python
+decodes such bytes of the command line), not preceded by a backslash of its own."""
 
 
 def summary_line(report: Report) -> str:

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import difflib
+import errno
 import gc
 import importlib
 import os
@@ -28,7 +30,7 @@ import click
 from hybridlog.allocators import return_freed_memory
 from hybridlog.background import ESTIMATES, PLOTS, start_worker
 from hybridlog.cli_lines import one_line
-from hybridlog.errors import HybridlogError, as_text
+from hybridlog.errors import HybridlogError, as_text, excerpt
 from hybridlog.launch import lost_output, single_threaded_blas, tolerate_closed_output
 from hybridlog.limits import limit_reached
 
@@ -261,11 +263,54 @@ def _usage_message(err: click.UsageError, args: Sequence[str] = ()) -> str:
         else:
             hint = "value"
         prefix, message = f"{hint}: ", err.message
+    elif isinstance(err, click.NoSuchOption) and (owners := _owners(err)):
+        close = [
+            known
+            for known in err.possibilities or ()
+            if difflib.SequenceMatcher(None, err.option_name, known).ratio() >= _CLOSE
+        ]
+        mean = f"; did you mean {close[0]!r}?" if close else ""
+        prefix, message = "", f"no such option {err.option_name!r} ({owners}){mean}"
     else:
         prefix, message = "", err.format_message()
     message = message.strip().rstrip(".")
     message = message[:1].lower() + message[1:]  # the hint as it is: LOG, not lOG
     return f"{command}: {prefix}{message}{_dash_file(err, args)} (see {command} --help)"
+
+
+_CLOSE = 0.8
+"""How like the unknown option one of the command's must be to be suggested beside the other
+commands that have it (``--estimators`` for ``--estimator``, not ``--help`` for ``--model``)."""
+
+
+def _owners(err: click.NoSuchOption) -> str:
+    """The other commands that have the unknown option, in words, or ``""``.
+
+    ``hybridlog inspect LOG --model M`` said ``Did you mean '--help'?``, and ``hybridlog
+    --json inspect LOG`` ``Did you mean '--version'?``: click suggests the option most like it
+    among those of the command it was given to, however unlike.
+    """
+    if err.ctx is None:
+        return ""
+    root = err.ctx.find_root()
+    group = root.command
+    if not isinstance(group, click.Group):
+        return ""
+    owners = [
+        name
+        for name, command in sorted(group.commands.items())
+        if command is not err.ctx.command
+        and any(
+            err.option_name in (*param.opts, *param.secondary_opts)
+            for param in command.get_params(root)
+            if isinstance(param, click.Option)
+        )
+    ]
+    if not owners:
+        return ""
+    listed = owners[0] if len(owners) == 1 else f"{', '.join(owners[:-1])} and {owners[-1]}"
+    where = "; give it after the command" if err.ctx.command is group else ""
+    return f"an option of {listed}{where}"
 
 
 def _dash_file(err: click.UsageError, args: Sequence[str]) -> str:
@@ -305,6 +350,15 @@ def _failure(err: Exception) -> str:
         )
     if isinstance(err, OSError) and (limit := limit_reached(err)) is not None:
         return f"hybridlog: error: {limit.what}{_where(err)} ({limit.detail}); {limit.advice}"
+    if isinstance(err, OSError) and err.errno == errno.ENAMETOOLONG and err.filename:
+        # a name given (--model, --junit, --msg-dir, a centres file) that the system refuses
+        # to look up: pathlib's is_file() and exists() raise it, where they answer False
+        # for a missing file; it was "unexpected OSError ... (a bug ...)"
+        name = excerpt(os.fsdecode(err.filename))
+        return (
+            f"hybridlog: error: {name}: the name is too long for the file system "
+            f"({err.strerror}); give a shorter one"
+        )
     return (
         f"hybridlog: error: unexpected {type(err).__name__}{_where(err)}: {err} "
         "(a bug, or an input hybridlog does not check yet; --debug shows the traceback)"

@@ -239,11 +239,31 @@ class _Command(click.Command):
     --approximate``) without a word: the run then wrote elsewhere, or read the log for
     another model, than one of the two said.  Repeatable options (``--set``, ``--map``, …)
     and plain switches given twice (``--force --force``: the same either way) are taken.
+
+    A usage error click's parser raises without the command (``--model`` at the end, its
+    value missing) is given it, so that the message names the command and its ``--help``.
+
+    Nor is an option's value one of the command's option names: click took the next word
+    whatever it was, so ``--out --force`` (the folder's name forgotten) wrote a folder named
+    ``--force`` and lost the ``--force`` asked for, and ``--model -q`` read a model ``-q``.
+    A value that starts with a short option (``--out -qh``: ``-q -h`` run together) is so
+    too.  A file of such a name is still given as ``./--force``.
     """
 
     def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        try:
+            return self._parse_args(ctx, args)
+        except click.UsageError as err:
+            # click's parser raises some without the context (an option's value missing,
+            # `--force=1`): they named `hybridlog` and its --help, not the command's
+            if err.ctx is None:
+                err.ctx = ctx
+            raise
+
+    def _parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
         if args and not ctx.resilient_parsing:
-            _, _, order = self.make_parser(ctx).parse_args(args=list(args))
+            values, _, order = self.make_parser(ctx).parse_args(args=list(args))
+            _refuse_option_names_as_values(self.get_params(ctx), values, ctx)
             for param in order:
                 times = sum(1 for seen in order if seen is param)
                 if (
@@ -259,6 +279,38 @@ class _Command(click.Command):
                         param_hint="/".join([*param.opts, *param.secondary_opts]),
                     )
         return super().parse_args(ctx, args)
+
+
+def _refuse_option_names_as_values(
+    params: Sequence[click.Parameter], values: Mapping[str, Any], ctx: click.Context
+) -> None:
+    """A usage error where an option's value is the name of an option of the command."""
+    options = [param for param in params if isinstance(param, click.Option)]
+    names = {name for option in options for name in (*option.opts, *option.secondary_opts)}
+    for param in options:
+        if param.is_flag or param.name not in values:
+            continue
+        given = values[param.name]
+        for value in given if isinstance(given, (list, tuple)) else [given]:
+            if not isinstance(value, str):
+                continue
+            exact = value.partition("=")[0] in names
+            # -qh: short options run together, as click reads them where an option may stand
+            joined = value[1:2] not in ("", "-") and value[:2] in names
+            if exact or joined:
+                file = (
+                    f" (a file of that name: ./{value})"
+                    if isinstance(param.type, click.Path)
+                    else ""
+                )
+                raise click.BadParameter(
+                    f"got {excerpt(value)}, which {'is' if exact else 'starts with'} an "
+                    "option of this command: give "
+                    f"{param.opts[0]} its value before it{file}",
+                    ctx=ctx,
+                    param=param,
+                    param_hint="/".join([*param.opts, *param.secondary_opts]),
+                )
 
 
 class Group(click.Group):

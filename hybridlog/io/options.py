@@ -224,4 +224,11 @@ def msg_dir_problem(folder: str) -> str | None:
     root = Path(folder)
     if root.is_dir():
         return None
-    return "a file, not a folder of .msg files" if root.exists() else "no such folder"
+    if root.exists():
+        return "a file, not a folder of .msg files"
+    if root.is_symlink():  # said "no such folder" of a link to nothing or a loop
+        try:
+            root.stat()
+        except OSError as err:
+            return f"a symbolic link that cannot be followed ({err.strerror})"
+    return "no such folder"

@@ -37,7 +37,7 @@ def read_centers(path: str | os.PathLike[str]) -> CentersFile:
     except FileNotFoundError as err:
         raise OptionError(f"{source}: no such centers file") from err
     except OSError as err:
-        raise OptionError(f"{source}: cannot read: {err}") from err
+        raise OptionError(f"{source}: cannot be read ({err.strerror or err})") from err
     try:  # as a model file's: the line of the first byte that is not UTF-8, or UTF-16 named
         text = decode_model_file(data)
     except ModelError as err:  # read "cannot read: 'utf-8' codec can't decode byte 0xff in

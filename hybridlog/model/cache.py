@@ -30,6 +30,7 @@ every error names the file as the user gave it.
 
 from __future__ import annotations
 
+import difflib
 import functools
 import hashlib
 import json
@@ -145,6 +146,12 @@ def load_model_set(name_or_path: str | Path, texts: Mapping[str, str]) -> Hybrid
         raise OptionError(f"--set {given}: {err}", named=texts) from None
 
 
+_LOG_SUFFIXES = (".csv", ".parquet", ".mcap", ".bag", ".db3")
+"""Suffixes of the logs hybridlog reads: a file of one given as a model is a log (a log and
+its model swapped, ``--model run.mcap MODEL``), which read as TOML said ``line 1: not UTF-8
+(byte 0x89); save the file as UTF-8``."""
+
+
 def model_file(name_or_path: str | Path) -> Path | None:
     """The model file ``name_or_path`` names, or ``None`` when it names a built-in.
 
@@ -154,26 +161,56 @@ def model_file(name_or_path: str | Path) -> Path | None:
     Raises
     ------
     ModelError
-        When it names neither a file nor a built-in (a folder, a missing ``.toml`` file),
+        When it names neither a file nor a built-in (a folder, a missing ``.toml`` file, a
+        symbolic link to nothing or a loop: said so, not as an unknown built-in),
         and when a built-in's bare name also names a file that does not hold that built-in
-        (:func:`_check_not_shadowing`; ``./NAME`` names the file alone).
+        (:func:`_check_not_shadowing`; ``./NAME`` names the file alone), and a log's file
+        (:data:`_LOG_SUFFIXES`).
     """
     path = Path(name_or_path)
     name = str(name_or_path)
     if path.is_file():
         if name in builtin_names():
             _check_not_shadowing(path, name)
+        if path.suffix.lower() in _LOG_SUFFIXES:
+            raise ModelError(
+                f"{path}: a log ({path.suffix}), not a model file (TOML): are the log and "
+                "the model swapped?"
+            )
         return path
     if name in builtin_names():
         return None
     if path.exists():
         raise ModelError(f"{path}: not a model file (a folder or a special file)")
+    if path.is_symlink():  # to nothing, or a loop: the link is there, its file is not
+        try:
+            path.stat()
+        except FileNotFoundError:
+            target = excerpt(os.readlink(path))
+            raise ModelError(f"{path}: a symbolic link to {target}, which does not exist") from None
+        except OSError as err:
+            raise ModelError(f"{path}: cannot be read ({err.strerror})") from None
     if path.suffix == ".toml":
         raise ModelError(f"{path}: no such model file")
     known = ", ".join(builtin_names())
     shown = excerpt(name)  # quoted where blanks would not show: '' or ' x'
     shown = shown if name.strip() != name or not name else shown[1:-1]
-    raise ModelError(f"{shown}: neither a model file nor a built-in model (built-ins: {known})")
+    raise ModelError(
+        f"{shown}: neither a model file nor a built-in model (built-ins: {known})"
+        f"{_closest_builtin(name)}"
+    )
+
+
+def _closest_builtin(name: str) -> str:
+    """``"; did you mean 'x'?"`` for the built-in most like ``name`` (case and blanks aside).
+
+    ``--model three_tank`` or ``Three_Tank_HSTF`` listed the built-ins without a word, where
+    ``--estimator Imm`` suggests ``imm``.
+    """
+    names = {known.casefold(): known for known in builtin_names()}
+    key = name.strip().casefold()
+    found = [key] if key in names else difflib.get_close_matches(key, list(names), n=1)
+    return f"; did you mean '{names[found[0]]}'?" if found else ""
 
 
 def _check_not_shadowing(path: Path, name: str) -> None:

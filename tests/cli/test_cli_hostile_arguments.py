@@ -15,6 +15,7 @@ import pytest
 
 from hybridlog.cli import cli
 from hybridlog.cli_types import _expand_tilde
+from tests.support.paths import SAMPLE_LOGS
 
 Main = Callable[[list[str]], tuple[int, str]]
 
@@ -56,6 +57,70 @@ def test_an_option_of_one_value_given_twice_is_refused_in_every_command(
     # repeatable options and plain switches repeated are taken
     code, err = hybridlog_main(["models", "--quiet", "--quiet"])
     assert code == 0 and err == ""
+
+
+def test_an_option_without_its_value_names_the_command_in_every_command(
+    hybridlog_main: Main,
+) -> None:
+    # `analyze LOG --model` said "hybridlog: option '--model' requires an argument (see
+    # hybridlog --help)": click's parser raised it without the command
+    for name, command in cli.commands.items():
+        for option in _options(command):
+            if option.is_eager:
+                continue
+            first = option.opts[0]
+            given, why = (
+                (f"{first}=1", "does not take a value")
+                if option.is_flag
+                else (first, "requires an argument")
+            )
+            code, err = hybridlog_main([name, "log.csv", given])
+            assert (code, err) == (
+                2,
+                f"hybridlog {name}: option {first!r} {why} (see hybridlog {name} --help)\n",
+            ), (name, given)
+
+
+def test_an_option_name_taken_as_a_value_is_refused_in_every_command(
+    hybridlog_main: Main, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # click took the next word whatever it was: `batch LOG --out --force` wrote a folder
+    # named --force and lost the --force asked for
+    monkeypatch.chdir(tmp_path)
+    checked = 0
+    for name, command in cli.commands.items():
+        for option in _options(command):
+            if option.is_flag or option.is_eager:
+                continue
+            for given in ("--force" if name != "inspect" else "--json", "-q", "--debug=1"):
+                code, err = hybridlog_main([name, "log.csv", option.opts[0], given])
+                hint = "/".join([*option.opts, *option.secondary_opts])
+                file = (
+                    f" (a file of that name: ./{given})"
+                    if isinstance(option.type, click.Path)
+                    else ""
+                )
+                assert (code, err) == (
+                    2,
+                    f"hybridlog {name}: {hint}: got {given!r}, which is an option of this "
+                    f"command: give {option.opts[0]} its value before it{file} "
+                    f"(see hybridlog {name} --help)\n",
+                ), (name, option.opts, given)
+                checked += 1
+    assert checked > 100
+    assert list(tmp_path.iterdir()) == []
+    # a file of such a name is given as ./NAME; a value that only starts with - is taken
+    code, err = hybridlog_main(["analyze", "log.csv", "--model", "m", "--out", "-qh"])
+    assert (code, err) == (
+        2,
+        "hybridlog analyze: --out: got '-qh', which starts with an option of this command: "
+        "give --out its value before it (a file of that name: ./-qh) "
+        "(see hybridlog analyze --help)\n",
+    )
+    code, err = hybridlog_main(["inspect", "./--json"])
+    assert (code, err) == (2, "hybridlog: error: --json: no such file\n")
+    code, err = hybridlog_main(["analyze", "log.csv", "--model", "m", "--max-gap", "-1"])
+    assert code == 2 and "--max-gap: expected a number from 0 to 1e+09, got -1" in err
 
 
 @pytest.mark.parametrize(
@@ -180,3 +245,82 @@ def test_a_removed_working_folder_is_said_in_words(
         "hybridlog: error: the working folder no longer exists (removed while the shell was "
         "in it); change to an existing folder and run again\n",
     )
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (
+            ["batch", "log.csv", "--model", "m", "--out", "o", "--plots", "\udcff"],
+            "hybridlog batch: --plots: '\\xff' is not one of 'none', 'failed', 'all' "
+            "(see hybridlog batch --help)\n",
+        ),
+        (
+            ["analyze", "log.csv", "--model", "three_tank_hstf", "--fail-under", "vaf=\udcff"],
+            "hybridlog: error: --fail-under 'vaf=\\xff': bound '\\xff': expected a finite number\n",
+        ),
+    ],
+)
+def test_a_byte_that_is_not_utf8_is_shown_as_typed_in_every_message(
+    hybridlog_main: Main, args: list[str], said: str
+) -> None:
+    # messages that quoted a value with repr read '\udcff' for the byte 0xff typed
+    assert hybridlog_main(args) == (2, said)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["models", "a" * 300],
+        ["simulate", "a" * 300, "--out", "x.csv"],
+        ["inspect", "log.csv", "--msg-dir", "a" * 300],
+        [
+            "analyze",
+            str(SAMPLE_LOGS / "double_cart_case1.csv"),
+            "--model",
+            "double_cart_case1",
+            "--estimator",
+            "chiu",
+            "--set",
+            f"centers={'a' * 300}.json",
+        ],
+    ],
+)
+def test_a_name_too_long_for_the_file_system_is_named_not_called_a_bug(
+    hybridlog_main: Main, args: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # pathlib's is_file() raises ENAMETOOLONG: "unexpected OSError in cache.py:172 (a bug ...)"
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "log.csv").write_text("t,u,y\n0,1,2\n")
+    code, err = hybridlog_main(args)
+    assert code == 2
+    assert err.startswith("hybridlog: error: 'aaaa") and err.endswith(
+        "': the name is too long for the file system (File name too long); give a shorter one\n"
+    ), err
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (
+            ["inspect", "log.csv", "--model", "m"],
+            "hybridlog inspect: no such option '--model' (an option of analyze, batch, "
+            "cluster and compare) (see hybridlog inspect --help)\n",
+        ),
+        (
+            ["--json", "inspect", "log.csv"],
+            "hybridlog: no such option '--json' (an option of inspect; give it after the "
+            "command) (see hybridlog --help)\n",
+        ),
+        (
+            ["compare", "log.csv", "--estimator", "imm"],
+            "hybridlog compare: no such option '--estimator' (an option of analyze and "
+            "batch); did you mean '--estimators'? (see hybridlog compare --help)\n",
+        ),
+    ],
+)
+def test_an_option_of_another_command_names_the_commands_that_have_it(
+    hybridlog_main: Main, args: list[str], said: str
+) -> None:
+    # inspect --model said "Did you mean '--help'?", hybridlog --json "Did you mean '--version'?"
+    assert hybridlog_main(args) == (2, said)

@@ -109,3 +109,16 @@ def test_reading_a_log_refuses_arguments_of_the_wrong_type(path, options, shown)
         load_signals(path, spec, options)
     with pytest.raises(OptionError, match=shown):
         inspect_log(path, options)
+
+
+def test_a_msg_dir_or_centres_file_that_is_a_link_loop_is_said_so(tmp_path) -> None:
+    # --msg-dir LOOP said "no such folder"; --set centers=LOOP "cannot read: [Errno 40] ..."
+    from hybridlog.jobs.centers import read_centers
+
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    loop = r"\(Too many levels of symbolic links\)$"
+    with pytest.raises(OptionError, match=rf"/a: a symbolic link that cannot be followed {loop}"):
+        ReadOptions(msg_dirs=(str(tmp_path / "a"),))
+    with pytest.raises(OptionError, match=rf"/a: cannot be read {loop}"):
+        read_centers(tmp_path / "a")

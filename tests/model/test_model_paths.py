@@ -190,3 +190,47 @@ def test_the_checked_columns_are_those_a_smoothed_run_writes(tmp_path):
     ):
         header = (out / f"{table}.csv").read_text().splitlines()[0].split(",")
         assert set(header) == expected[table] | fixed
+
+
+@pytest.mark.parametrize(
+    ("given", "meant"),
+    [
+        ("three_tank", "three_tank_hstf"),
+        ("Three_Tank_HSTF", "three_tank_hstf"),
+        (" ice_clutch", "ice_clutch"),
+        ("doublecart_case1", "double_cart_case1"),
+    ],
+)
+def test_a_model_name_close_to_a_built_in_is_suggested(tmp_path, monkeypatch, given, meant):
+    # --model three_tank listed the built-ins without a word; --estimator Imm suggests imm
+    from hybridlog.model.cache import model_file
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ModelError, match=rf"\(built-ins: [^)]*\); did you mean '{meant}'\?$"):
+        model_file(given)
+    with pytest.raises(ModelError, match=r"\(built-ins: [^)]*\)$"):
+        model_file("xyz")
+
+
+def test_a_model_link_to_nothing_or_a_loop_is_said_so(tmp_path):
+    # --model LINK said "LINK: neither a model file nor a built-in model (built-ins: ...)"
+    from hybridlog.model.cache import model_file
+
+    (tmp_path / "dangling.toml").symlink_to("gone.toml")
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    with pytest.raises(ModelError, match=r"dangling.toml: a symbolic link to 'gone.toml', which"):
+        model_file(tmp_path / "dangling.toml")
+    with pytest.raises(ModelError, match=r"/a: cannot be read \(Too many levels of symbolic"):
+        model_file(tmp_path / "a")
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet", ".mcap", ".bag", ".db3", ".MCAP"])
+def test_a_log_given_as_the_model_is_said_to_be_a_log(tmp_path, suffix):
+    # analyze --model run.mcap MODEL said "line 1: not UTF-8 (byte 0x89); save the file as UTF-8"
+    from hybridlog.model.cache import model_file
+
+    log = tmp_path / f"run{suffix}"
+    log.write_bytes(b"\x89MCAP0\r\n")
+    with pytest.raises(ModelError, match=rf"run\{suffix}: a log \(\{suffix}\), not a model file"):
+        model_file(log)
