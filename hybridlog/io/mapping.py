@@ -446,8 +446,10 @@ def resolve_signal_map(
         looked = list(dict.fromkeys([*([] if model_path is None else [model_path]), *defaults]))
         if not required:
             for name in looked:
-                reason = missing(name, numeric) if name in available else None
-                if reason is not None:
+                # a field the log has in a form that cannot be used (a list column 'mode'
+                # whose fields are 'mode[0]', ...): no truth, and the report says why
+                reason = missing(name, numeric)
+                if reason is not None and not absent(reason):
                     unusable.setdefault(symbol, f"{field_word} {name!r}: {reason}")
             return None
         for name in looked if explain is not None else ():
