@@ -52,6 +52,7 @@ from hybridlog.cli_process import one_bounded_job, run
 from hybridlog.cli_progress import BatchClock, batch_progress, batch_reporter, work_reporter
 from hybridlog.cli_types import (
     FILE_OUT,
+    FOLDER_OUT,
     PATH,
     DataclassOptions,
     GeneratedOptionsCommand,
@@ -423,7 +424,7 @@ def cluster_command(
 @click.option(
     "--out",
     "out_dir",
-    type=PATH,
+    type=FOLDER_OUT,
     default=None,
     help="Output directory [default: <log name>_<estimator> here].",
 )
@@ -484,7 +485,7 @@ def analyze_command(
     "--out",
     "out_dir",
     required=True,
-    type=PATH,
+    type=FOLDER_OUT,
     help="Output directory: one report per estimator and comparison.md/.csv.",
 )
 @analysis_options
@@ -556,7 +557,7 @@ def compare_command(
     "--out",
     "out_dir",
     required=True,
-    type=PATH,
+    type=FOLDER_OUT,
     help="Output directory: one report folder per log (its path from the logs' common "
     "folder, or from the folder of logs given, e.g. d2/run.csv/) and summary.md/.csv/.png.",
 )

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import click
 
 from hybridlog.cli_options import is_quiet
-from hybridlog.errors import as_text, excerpt, printable, shortened
+from hybridlog.errors import as_text, excerpt, on_one_line, printable, shortened
 
 if TYPE_CHECKING:
     from hybridlog.report.document import Report
@@ -64,7 +64,7 @@ def one_line(text: str) -> str:
     ``repr`` (click's choices, ``--fail-under``, ``--map``'s column, a library's reason):
     those read ``'\udcff'`` for the ``\xff`` typed, beside ``'\xff'`` in the same line.
     """
-    line = _ESCAPED_BYTE.sub(r"\\x\1", printable(" ".join(str(text).split())))
+    line = _ESCAPED_BYTE.sub(r"\\x\1", printable(on_one_line(str(text))))
     return shortened(line, MAX_MESSAGE)
 
 

@@ -35,12 +35,23 @@ class PathName(click.Path):
     but not of ``--out=~/r`` nor of a quoted ``"~/r"``: those wrote a folder named ``~`` in
     the working folder (which a later ``rm -r ~`` would take for the home).  A ``~user``
     the system does not know is refused; ``./~`` names a file called ``~``.
+
+    A name of blanks only is refused too; and, for a name hybridlog writes (``written``),
+    a part of it still to be made that starts or ends with a blank: ``--out " "`` wrote a
+    folder that ``ls`` shows as nothing, ``--out "  r1"`` one that reads as ``r1``.  Folders
+    that exist already are taken as they are named.
     """
+
+    def __init__(self, *, written: bool = False, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.written = written
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         """The name as a path, ``~`` expanded; a usage error for an empty name or unknown user."""
         if isinstance(value, str) and not value:
             self.fail("an empty name", param, ctx)
+        if isinstance(value, str) and value.isspace():
+            self.fail(f"a name of blanks only, {excerpt(value)}", param, ctx)
         if isinstance(value, str) and value.startswith("~"):
             home = _expand_tilde(value)
             if home.startswith("~"):
@@ -56,7 +67,35 @@ class PathName(click.Path):
                     ctx,
                 )
             value = home
+        if self.written and isinstance(value, str):
+            blank = _blank_at_an_end(value)
+            if blank is not None:
+                part = "" if blank == value.rstrip("/") else f": its part {excerpt(blank)}"
+                self.fail(
+                    f"{excerpt(value)}{part} starts or ends with a blank; write it without "
+                    "(a file or folder named so is easily taken for another)",
+                    param,
+                    ctx,
+                )
         return super().convert(value, param, ctx)
+
+
+def _blank_at_an_end(name: str) -> str | None:
+    """The first part of ``name`` still to be made that starts or ends with a blank, or None.
+
+    Parts from the first that does not exist on: a folder already there is taken as named.
+    """
+    parts = name.split("/")
+    for k, part in enumerate(parts):
+        if not part or part in (".", ".."):
+            continue
+        if os.path.lexists("/".join(parts[: k + 1])):
+            continue
+        for later in parts[k:]:
+            if later != later.strip():
+                return later
+        return None
+    return None
 
 
 def _expand_tilde(value: str) -> str:
@@ -90,10 +129,14 @@ def _working_folder() -> str:
 
 
 PATH = PathName(path_type=Path)
-"""The type of every file or folder argument and option but a file to write."""
+"""The type of every file or folder argument and option but one hybridlog writes."""
 
 
-FILE_OUT = PathName(path_type=str)
+FOLDER_OUT = PathName(path_type=Path, written=True)
+"""The type of an option naming a folder to write (``--out`` of analyze, compare, batch)."""
+
+
+FILE_OUT = PathName(path_type=str, written=True)
 """The type of an option naming a file to write: the text as given, whose ``/`` at the end
 (``--out dir.json/``, meaning a folder) a ``Path`` would drop; the job refuses it
 (:func:`hybridlog.outputs.check_file_name`)."""

@@ -240,8 +240,21 @@ _KEPT_ESCAPES = 0x10000
 _ESCAPES = _Escapes()
 
 
+_LINE_BREAKS = re.compile(r" *[\t\n\v\f\r\x1c-\x1f\x85\u2028\u2029]\s*")
+"""A run of white space with a line break or tab in it (a message written over lines)."""
+
+
+def on_one_line(text: str) -> str:
+    """``text`` with each run of white space that breaks a line or tabs one space, trimmed.
+
+    Runs of plain spaces stay: they are the user's, in a quoted name (``'run  1.csv'`` read
+    ``'run 1.csv'``, another file's name, where all white space was squeezed).
+    """
+    return _LINE_BREAKS.sub(" ", text).strip()
+
+
 def shortened(text: str, limit: int, *, end_share: float = 1 / 3) -> str:
-    """``text`` on one line (its runs of white space one space), at most ``limit`` characters.
+    """``text`` on one line (:func:`on_one_line`), at most ``limit`` characters.
 
     A longer one is cut in the middle, where a message says least (it starts with the file or
     option and ends with what is wrong), the end keeping ``end_share`` of the room; the cut
@@ -249,7 +262,7 @@ def shortened(text: str, limit: int, *, end_share: float = 1 / 3) -> str:
     read ``t = 0.… s``), and within a word only where there is none (a quoted 16 KB line),
     never between a letter and its combining marks (:func:`_joined`).
     """
-    line = " ".join(text.split())
+    line = on_one_line(text)
     if len(line) <= limit:
         return line
     tail_room = round((limit - 1) * end_share)

@@ -204,3 +204,13 @@ def test_the_escapes_kept_are_bounded_whatever_the_text() -> None:
     assert len(errors.printable(beyond)) >= len(beyond)
     assert len(errors._ESCAPES) <= 0x10000
     assert errors.printable("\U0001f600\x00\U000e0001") == "\U0001f600\\x00\\U000e0001"
+
+
+def test_one_line_joins_lines_and_keeps_the_users_blanks() -> None:
+    # all white space was squeezed to one space: 'run  1.csv' was named 'run 1.csv', another
+    # file's name, in every error that quoted it
+    from hybridlog.errors import excerpt, on_one_line, shortened
+
+    assert shortened(f"no such file {excerpt('run  1.csv')}", 200) == "no such file 'run  1.csv'"
+    assert on_one_line("  the model\n    file is bad:\t\n x  ") == "the model file is bad: x"
+    assert on_one_line("a\u2028b\r\nc") == "a b c"

@@ -14,7 +14,7 @@ import click
 import pytest
 
 from hybridlog.cli import cli
-from hybridlog.cli_types import _expand_tilde
+from hybridlog.cli_types import PathName, _expand_tilde
 from tests.support.paths import SAMPLE_LOGS
 
 Main = Callable[[list[str]], tuple[int, str]]
@@ -324,3 +324,62 @@ def test_an_option_of_another_command_names_the_commands_that_have_it(
 ) -> None:
     # inspect --model said "Did you mean '--help'?", hybridlog --json "Did you mean '--version'?"
     assert hybridlog_main(args) == (2, said)
+
+
+_WRITTEN = {"--out", "--plot", "--junit"}
+
+
+def test_every_name_hybridlog_writes_is_read_as_one() -> None:
+    # the type that refuses a blank at the end of a name to be made (PathName(written=True))
+    checked = [
+        (name, option.opts[0], isinstance(option.type, PathName) and option.type.written)
+        for name, command in cli.commands.items()
+        for option in _options(command)
+        if _WRITTEN & set(option.opts)
+    ]
+    assert len(checked) == 7
+    assert all(written for _, _, written in checked), checked
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (["analyze", "log.csv", "--model", "m", "--out", " "], "--out: a name of blanks only, ' '"),
+        (["inspect", "  "], "LOG: a name of blanks only, '  '"),
+        (
+            ["compare", "log.csv", "--model", "m", "--estimators", "imm", "--out", "  r1"],
+            "--out: '  r1' starts or ends with a blank",
+        ),
+        (
+            ["batch", "log.csv", "--model", "m", "--out", "b", "--junit", "b/ j.xml"],
+            "its part ' j.xml'",
+        ),
+        (["simulate", "three_tank_hstf", "--out", "new/run.csv "], "its part 'run.csv '"),
+        (["cluster", "log.csv", "--model", "m", "--plot", "c.png "], "'c.png ' starts or ends"),
+    ],
+)
+def test_a_name_to_write_with_a_blank_at_an_end_is_refused(
+    hybridlog_main: Main,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    args: list[str],
+    said: str,
+) -> None:
+    # --out " " wrote a folder that ls shows as nothing, --out "  r1" one that reads as r1;
+    # the message keeps the user's blanks (all white space was squeezed to one space)
+    monkeypatch.chdir(tmp_path)
+    code, err = hybridlog_main(args)
+    command = f"hybridlog {args[0]}"
+    assert code == 2 and err.startswith(f"{command}: ") and said in err, err
+    assert err.endswith(f"(see {command} --help)\n") and err.count("\n") == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_folder_there_already_is_taken_as_named(tmp_path: Path) -> None:
+    (tmp_path / "runs ").mkdir()
+    written = PathName(path_type=str, written=True)
+    assert written.convert(f"{tmp_path}/runs /r", None, None) == f"{tmp_path}/runs /r"
+    with pytest.raises(click.BadParameter, match="its part 'r '"):
+        written.convert(f"{tmp_path}/runs /r ", None, None)
+    # a name read, not written, may be as the user's file is named
+    assert PathName(path_type=str).convert(" r", None, None) == " r"
