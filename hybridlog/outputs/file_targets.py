@@ -2,7 +2,9 @@
 
 :func:`check_followable` and :func:`check_creatable` hold for files and folders alike;
 :func:`check_file_name` and :func:`check_file_target` are a file's: replaced only with
-``--force`` and only when hybridlog wrote it (:func:`~hybridlog.outputs.records.wrote_file`).
+``--force`` and only when hybridlog wrote it (:func:`~hybridlog.outputs.records.wrote_file`);
+:func:`check_not_bookkeeping` refuses an output, file or folder, named as hybridlog's own
+markers, records and temporaries are.
 """
 
 from __future__ import annotations
@@ -13,9 +15,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 from hybridlog.errors import OutputError, excerpt
-from hybridlog.outputs.paths import PathLike, output_path, path_present, shown_path
+from hybridlog.outputs.paths import MARKER, PathLike, output_path, path_present, shown_path
 from hybridlog.outputs.records import wrote_file
-from hybridlog.outputs.temporaries import temporary_name
+from hybridlog.outputs.temporaries import is_temporary, temporary_name
 
 _TEMPORARY_OVERHEAD = len(".x.hybridlog-tmp-0000-4194304-00000000") - 1
 """How much longer than its target's name a temporary name can be (:func:`temporary_name`)."""
@@ -154,16 +156,19 @@ def check_file_name(target: PathLike, option: str = "") -> None:
     ``open`` refuses such a name, but :class:`~pathlib.Path` drops the ``/`` (and a last
     ``.``), so ``cluster --out dir.json/``, where the user meant a folder, wrote a file
     ``dir.json``.  Called on the text given (a ``Path`` no longer has the ending), first by
-    :func:`check_file_target`; ``option`` (``--out``) starts the message.
+    :func:`check_file_target`; ``option`` (``--out``) starts the message.  A name of
+    hybridlog's own bookkeeping is refused too (:func:`check_not_bookkeeping`).
 
     Raises
     ------
     OutputError
-        Naming the option and the path, and that a file is written there.
+        Naming the option and the path, and that a file is written there (or what
+        hybridlog keeps under that name).
     """
     text = os.fspath(target)
     separators = os.sep + (os.altsep or "")
     last = os.path.basename(text)
+    check_not_bookkeeping(target, option)
     if text.endswith(tuple(separators)):
         ending = text[len(text.rstrip(separators)) - len(text) :]
     elif last in (os.curdir, os.pardir):
@@ -175,6 +180,46 @@ def check_file_name(target: PathLike, option: str = "") -> None:
         f"{prefix}{shown_path(target)}: ends with {excerpt(ending, 20)}, which names a folder; "
         "name a file to write"
     )
+
+
+def _bookkeeping_kind(name: str) -> str | None:
+    """What of hybridlog's own bookkeeping a file or folder ``name`` is named as, if any.
+
+    A folder's :data:`~hybridlog.outputs.paths.MARKER`, the record ``.<name>.hybridlog``
+    beside a file hybridlog wrote (:func:`~hybridlog.outputs.records.record_path`), or a
+    temporary (:func:`~hybridlog.outputs.temporaries.temporary_name`).
+    """
+    if name == MARKER:
+        return f"marker (the {MARKER} file of a folder it wrote)"
+    if name.startswith(".") and name.endswith(MARKER) and len(name) > len(MARKER) + 1:
+        return f"record of a file it wrote ({excerpt(name[1 : -len(MARKER)])})"
+    if is_temporary(name):
+        return "temporary file"
+    return None
+
+
+def check_not_bookkeeping(target: PathLike, option: str = "") -> None:
+    """Refuse an output named as hybridlog names its own bookkeeping (:func:`_bookkeeping_kind`).
+
+    Written there, an output replaced what makes a folder hybridlog's, or what tells a file
+    hybridlog wrote from one a user edited, once the same run wrote them (``batch --out o
+    --junit o/.hybridlog`` wrote its JUnit XML over the batch folder's marker, and ``--junit
+    o/.summary.md.hybridlog`` over summary.md's record, after which every run into ``o`` was
+    refused: summary.md read as edited by hand); and a temporary's name is removed as a dead
+    run's leftover.
+
+    Raises
+    ------
+    OutputError
+        Naming the option and the path, and what the name is hybridlog's for.
+    """
+    text = os.fspath(target)
+    kind = _bookkeeping_kind(os.path.basename(text.rstrip(os.sep + (os.altsep or ""))))
+    if kind is not None:
+        prefix = f"{option} " if option else ""
+        raise OutputError(
+            f"{prefix}{shown_path(target)}: named as hybridlog's own {kind}; choose another name"
+        )
 
 
 def check_file_target(

@@ -13,7 +13,12 @@ from collections.abc import Callable, Collection, Iterator, Sequence
 from pathlib import Path
 
 from hybridlog.errors import OutputError, as_name, excerpt, first_few
-from hybridlog.outputs.file_targets import check_creatable, check_followable, check_path_length
+from hybridlog.outputs.file_targets import (
+    check_creatable,
+    check_followable,
+    check_not_bookkeeping,
+    check_path_length,
+)
 from hybridlog.outputs.paths import MARKER, PathLike, output_path, path_present, shown_path
 from hybridlog.outputs.records import edited_files, is_ours, record_path, recorded_files
 from hybridlog.outputs.temporaries import folder_entries, own_temporary, remove_stale_temporaries
@@ -51,6 +56,7 @@ def check_dir_target(
         output hybridlog wrote.
     """
     check_followable(target)
+    check_not_bookkeeping(target)
     path = output_path(target)
     if path.parent == path:
         raise OutputError(f"output directory {shown_path(target)} cannot be replaced")

@@ -93,11 +93,20 @@ def check_junit_target(target: PathLike) -> Path:
     Raises
     ------
     OutputError
-        When the target is a folder, a device or pipe, an existing file of someone else's,
-        or cannot be created.
+        When the target is a folder, a device or pipe, a symbolic link, an existing file of
+        someone else's, or cannot be created.
     """
     check_file_name(target, "--junit")  # before Path drops the "/" of --junit j.xml/
     path = Path(target)
+    if path.is_symlink():
+        # a link to a batch's JUnit file read as that file: the batch folder's previous
+        # run's file (the link's target) was withdrawn, the link left pointing at nothing,
+        # and the batch refused at its end, every summary gone
+        raise OutputError(
+            f"--junit {excerpt(str(target))[1:-1]}: is a symbolic link (to "
+            f"{excerpt(os.readlink(path))}), which hybridlog does not write through; name the "
+            "file itself or another path"
+        )
     ours = path.is_file() and is_junit_of_ours(path)
     if (path.exists() or path.is_symlink()) and not ours and not path.is_dir():
         raise OutputError(

@@ -14,6 +14,7 @@ from types import SimpleNamespace
 
 import pytest
 
+from hybridlog.errors import OutputError
 from hybridlog.jobs.batch import run_batch
 from hybridlog.outputs import MARKER
 from tests.jobs.test_batch_resume import write_logs
@@ -111,3 +112,24 @@ def test_a_marker_edited_to_a_path_outside_removes_nothing(tmp_path: Path) -> No
 
     assert _batch(logs, out, None) == []
     assert outside.is_file()
+
+
+def test_a_junit_path_that_is_a_link_is_refused_before_anything_is_removed(
+    tmp_path: Path,
+) -> None:
+    """A link to the batch's own JUnit file read as that file: the file was withdrawn as the
+    previous run's, the link left pointing at nothing and the batch refused at its end, exit
+    2, with no summary and no JUnit file left."""
+    logs = write_logs(tmp_path / "logs", ["s1.csv"], steps=20)
+    out, junit = tmp_path / "out", tmp_path / "junit.xml"
+    _batch(logs, out, junit)
+    written = junit.read_bytes()
+    links = {"to the batch's file": junit, "to nothing": tmp_path / "gone.xml"}
+    for why, target in links.items():
+        link = tmp_path / f"link {why}.xml"
+        link.symlink_to(target)
+        with pytest.raises(OutputError, match=r"^--junit .*: is a symbolic link \(to "):
+            _batch(logs, out, link)
+        assert junit.read_bytes() == written, why
+        assert (out / "summary.md").is_file(), why
+        assert not target.exists() or target == junit
