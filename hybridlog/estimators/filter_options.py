@@ -97,11 +97,24 @@ class ImmOptions:
     def inert_on(cls, model: HybridModel) -> dict[str, str]:
         """Options that ``model`` leaves unread whatever the others say: name → why.
 
-        With one mode the Markov matrix is ``[[1]]`` whatever ``transition_stay`` says.
+        With one mode the Markov matrix is ``[[1]]`` whatever ``transition_stay`` says, and
+        every way of reading off the mode sequence gives that mode at every sample:
+        ``viterbi`` and ``kbest`` (of any ``beam``: one history, its EKF the filter's) ran and
+        reported a "viterbi" pass whose modes, states and probabilities were the filter's.
         """
         if model.n_modes == 1:
-            why = _ONE_MODE.format(model.name, "the Markov matrix is [[1]] whatever its diagonal")
-            return {"transition_stay": why}
+            sequence = _ONE_MODE.format(
+                model.name,
+                "its mode sequence is that mode at every sample: argmax, viterbi and kbest "
+                "read off the same modes, and kbest's one history is the filter's EKF",
+            )
+            return {
+                "transition_stay": _ONE_MODE.format(
+                    model.name, "the Markov matrix is [[1]] whatever its diagonal"
+                ),
+                "mode_sequence": sequence,
+                "beam": sequence,
+            }
         return {}
 
     def inert(self, model: HybridModel) -> dict[str, str]:
@@ -120,9 +133,10 @@ class ImmOptions:
                 "leave smoother unset"
             )
         if self.mode_sequence != "kbest":
-            inert["beam"] = (
+            inert.setdefault(  # a one-mode model's reason stands: kbest would not read it either
+                "beam",
                 f"only mode_sequence = kbest keeps mode histories (here "
-                f"{self.mode_sequence}); add --mode-sequence kbest, or leave beam unset"
+                f"{self.mode_sequence}); add --mode-sequence kbest, or leave beam unset",
             )
         return inert
 

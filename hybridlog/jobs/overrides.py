@@ -248,7 +248,7 @@ def prepare_estimators(
         )
         for name, e in zip(names, chosen, strict=True)
     ]
-    _refuse_inert(model, prepared, overrides.options, declared)
+    _refuse_inert(model, prepared, overrides.options, declared, overrides.flags)
     return prepared
 
 
@@ -263,23 +263,24 @@ def _refuse_inert(
     prepared: Sequence[Prepared],
     options: Mapping[str, str],
     declared: Mapping[str, list[str]],
+    flags: Mapping[str, str],
 ) -> None:
-    """Refuse a ``--set`` option that no chosen estimator having it would read.
+    """Refuse a ``--set`` option (or flag) that no chosen estimator having it would read.
 
     An options dataclass may say which of its options the others' values, or the model,
     make inert (``inert(model) -> {name: why}``, e.g. ``imm``'s ``beam`` without
-    ``mode_sequence = kbest``, its ``transition_stay`` on a one-mode model);
-    ``--set`` of one is refused when every chosen estimator that has it says so (``compare
-    --estimators imm,unknown-mode --set beam=50`` sets unknown-mode's beam, and runs).
+    ``mode_sequence = kbest``, its ``transition_stay`` and ``mode_sequence`` on a one-mode
+    model); ``--set`` of one is refused when every chosen estimator that has it says so
+    (``compare --estimators imm,unknown-mode --set beam=50`` sets unknown-mode's beam, and
+    runs).  ``flags`` (option → the flag as given, ``--mode-sequence viterbi``): an option a
+    flag gave is named by its flag.
     """
     for name, value in options.items():
         having = [p for p in prepared if name in declared[p.name]]
         why = [_inert(p.options, model).get(name) for p in having]
         if having and all(why):
-            raise OptionError(
-                f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}: has no effect on "
-                f"estimator '{having[0].name}': {why[0]}"
-            )
+            given = flags.get(name) or f"--set {excerpt(name)[1:-1]}={excerpt(value)[1:-1]}"
+            raise OptionError(f"{given}: has no effect on estimator '{having[0].name}': {why[0]}")
 
 
 def set_reach(model: HybridModel, prepared: Sequence[Prepared], overrides: Overrides) -> list[str]:

@@ -23,6 +23,7 @@ from hybridlog.estimators.hstf import (
 )
 from hybridlog.estimators.imm import ImmOptions, run_imm
 from hybridlog.estimators.options import OptionSource, option, parse_options
+from hybridlog.estimators.registry import resolve_estimator
 from hybridlog.jobs.overrides import parse_sets, prepare_estimators
 from hybridlog.model.loader import load_model
 from hybridlog.simulate import simulate
@@ -208,3 +209,41 @@ def test_a_set_option_weighing_modes_is_refused_on_a_one_mode_model(
     assert str(caught.value).startswith(
         f"--set {name}={value}: has no effect on estimator '{estimator}': one_mode has one mode"
     )
+
+
+def test_an_offline_mode_sequence_is_refused_on_a_one_mode_model(tmp_path: Path) -> None:
+    """``--mode-sequence viterbi`` (or ``kbest``, or ``beam``) on a one-mode model ran, and
+    the report set a "viterbi" pass beside the filter, every number of both sides the same:
+    one mode is the whole sequence, and kbest's one history is the filter's EKF.  Refused
+    as ``transition_stay`` is, by the flag, ``--set`` and a model file's key alike."""
+    path = tmp_path / "one.toml"
+    path.write_text(ONE_MODE, encoding="utf-8")
+    model = load_model(path)
+    signals = simulate(model, steps=40, seed=1).signals(model)
+    # inert indeed: each reading of the sequence gives the filter's modes and states
+    filtered = run_imm(model, signals, ImmOptions())
+    for sequence in ("viterbi", "kbest"):
+        offline = run_imm(model, signals, ImmOptions(mode_sequence=sequence, beam=3))
+        np.testing.assert_array_equal(offline.modes, filtered.modes)
+        np.testing.assert_allclose(offline.state_means, filtered.state_means, rtol=1e-12)
+        np.testing.assert_allclose(offline.state_variances, filtered.state_variances, rtol=1e-12)
+    said = "has no effect on estimator 'imm': one_mode has one mode, and its mode sequence"
+    for sets, flag, given in [
+        ([], "viterbi", "--mode-sequence viterbi"),
+        ([], "kbest", "--mode-sequence kbest"),
+        (["mode_sequence=viterbi"], None, "--set mode_sequence=viterbi"),
+        (["beam=5"], None, "--set beam=5"),
+    ]:
+        parsed, overrides = parse_sets(sets, path)
+        with pytest.raises(OptionError) as caught:
+            prepare_estimators(parsed, ["imm"], overrides, mode_sequence=flag)
+        assert str(caught.value).startswith(f"{given}: {said}"), caught.value
+    # --smooth reads the one mode's RTS smoother: it stays
+    parsed, overrides = parse_sets([], path)
+    (prepared,) = prepare_estimators(parsed, ["imm"], overrides, smooth=True)
+    assert prepared.options.smooth
+    for key in ('mode_sequence = "kbest"', "beam = 5"):
+        written = tmp_path / "keyed.toml"
+        written.write_text(f"{ONE_MODE}\n[estimators.imm]\n{key}\n", encoding="utf-8")
+        with pytest.raises(ModelError, match=f"estimators.imm.{key.split()[0]}: .*one mode"):
+            resolve_estimator(load_model(written), "imm")
