@@ -33,7 +33,13 @@ import numpy as np
 
 from hybridlog.cluster.centers_file import CentersFile
 from hybridlog.cluster.kmeans import KMeansParameters, kmeans_clustering
-from hybridlog.cluster.labels import NO_CLUSTER, cluster_notes, decide_clusters
+from hybridlog.cluster.labels import (
+    NO_CLUSTER,
+    cluster_notes,
+    decide_clusters,
+    decision_twins,
+    twin_conflict,
+)
 from hybridlog.cluster.regressors import RegressorSpec, measured_rows, regression_vectors
 from hybridlog.cluster.subtractive import SubtractiveOptions, subtractive_clustering
 from hybridlog.errors import DataShortError, OptionError, as_text
@@ -315,9 +321,18 @@ def stored_classifier(
     if entry.modes is None:
         return classifier
     modes = np.array([list(mode_ids).index(m) for m in entry.modes], dtype=np.int64)
+    conflict = twin_conflict(modes, classifier.decision_values, mode_ids)
+    if conflict is not None:
+        raise OptionError(f"{source}: {algorithm}.modes: {conflict}")
     sizes = classifier.details["sizes"]
     return classifier.labelled(
-        modes, (f"labels loaded from {named}", *cluster_notes(modes, sizes, mode_ids))
+        modes,
+        (
+            f"labels loaded from {named}",
+            *cluster_notes(
+                modes, sizes, mode_ids, twins=decision_twins(classifier.decision_values)
+            ),
+        ),
     )
 
 
@@ -373,13 +388,23 @@ def _beyond_the_fitted_range(
     return (f"WARNING: {note}" if far > _FAR else note,)
 
 
-def manual_labels(text: str, mode_ids: Sequence[str], n_clusters: int) -> IntArray:
+def manual_labels(
+    text: str,
+    mode_ids: Sequence[str],
+    n_clusters: int,
+    *,
+    decision_values: FloatArray | None = None,
+) -> IntArray:
     """Mode index of each cluster from ``cluster_modes="2,1"`` (mode ids in cluster order).
+
+    ``decision_values``: the clusters' ``y_i*``, against which two clusters of the same
+    decision values given different modes are refused
+    (:func:`~hybridlog.cluster.labels.twin_conflict`).
 
     Raises
     ------
     OptionError
-        Not one known mode id per cluster.
+        Not one known mode id per cluster, or twins given different modes.
     """
     try:
         ids = comma_items(text, "mode ids")
@@ -394,4 +419,8 @@ def manual_labels(text: str, mode_ids: Sequence[str], n_clusters: int) -> IntArr
             raise OptionError(
                 f"cluster_modes: unknown mode '{mode}' (modes: {', '.join(mode_ids)})"
             )
-    return np.array([list(mode_ids).index(m) for m in ids], dtype=np.int64)
+    modes = np.array([list(mode_ids).index(m) for m in ids], dtype=np.int64)
+    conflict = None if decision_values is None else twin_conflict(modes, decision_values, mode_ids)
+    if conflict is not None:
+        raise OptionError(f"cluster_modes={text}: {conflict}")
+    return modes

@@ -10,7 +10,11 @@ Decision
 
     where ``y_i*`` are the ``y(k)`` components of centre ``i``.  With several outputs each
     is divided by its unit-box range first (for one output this is exactly eq. (3)).  Ties
-    go to the cluster found first.
+    go to the cluster found first: a cluster whose decision values are an earlier one's
+    (its twin, :func:`decision_twins`) decides no sample, and takes its twin's mode when
+    labelled from the data; labels given by hand (a centres file's, ``cluster_modes``) that
+    give twins different modes are refused (:func:`twin_conflict`): which mode their
+    samples got would be the order of the centres.
 Labelling
     Clusters are numbered in the order the clustering found them, which says nothing about
     the model's modes.  They are labelled from the data and the model alone, never from
@@ -33,7 +37,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,7 +54,9 @@ __all__ = [
     "ClusterLabels",
     "cluster_notes",
     "decide_clusters",
+    "decision_twins",
     "label_clusters",
+    "twin_conflict",
 ]
 
 
@@ -166,6 +172,42 @@ def _log_norms(y: FloatArray, centres: FloatArray, divisor: FloatArray) -> Float
     return costs
 
 
+def decision_twins(decision_values: FloatArray) -> dict[int, int]:
+    """Cluster → the first cluster with the same decision values ``y_i*`` (its twin).
+
+    Eq. (3) cannot tell such clusters apart: every sample of theirs goes to the first, so a
+    twin decides no sample whatever its other components (centres of a log whose output
+    stayed constant while its input moved).
+    """
+    values = np.asarray(decision_values, dtype=np.float64) + 0.0  # -0.0 is 0.0
+    if values.shape[0] < 2:
+        return {}
+    _, first, inverse = np.unique(values, axis=0, return_index=True, return_inverse=True)
+    twins = first[np.ravel(inverse)]
+    return {c: int(t) for c, t in enumerate(twins.tolist()) if t != c}
+
+
+def twin_conflict(
+    modes: IntArray, decision_values: FloatArray, mode_ids: Sequence[str]
+) -> str | None:
+    """Why labels given by hand cannot be used: twins (:func:`decision_twins`) of other modes.
+
+    ``None`` when every twin has its twin's mode.  A centres file edited to add a copy of a
+    centre under another mode, or ``cluster_modes`` giving two clusters of one ``y(k)`` two
+    modes, was used as the order of the centres decides: the later one never, unsaid.
+    """
+    for c, twin in decision_twins(decision_values).items():
+        if modes[c] != modes[twin]:
+            values = ", ".join(f"{v + 0.0:.6g}" for v in np.asarray(decision_values)[twin])
+            return (
+                f"clusters {twin + 1} and {c + 1} have the same decision values y* = "
+                f"[{values}] but the modes '{mode_ids[modes[twin]]}' and "
+                f"'{mode_ids[modes[c]]}': eq. (3) cannot tell them apart, so which mode their "
+                "samples get would be the order of the centres; give them one mode"
+            )
+    return None
+
+
 NO_CLUSTER = -1
 """What :func:`decide_clusters` gives a sample without a measured output: no decision."""
 
@@ -238,6 +280,7 @@ def label_clusters(
     *,
     what: str = "score",
     samples: int | None = None,
+    twins: Mapping[int, int] | None = None,
 ) -> ClusterLabels:
     """Label clusters as modes by the lowest ``score(map)`` (see the module docstring).
 
@@ -257,6 +300,10 @@ def label_clusters(
     samples:
         Samples each ``score`` call runs over, the work of one map (default: the sum of
         ``sizes``).
+    twins:
+        Cluster → the earlier cluster of the same decision values (:func:`decision_twins`):
+        it decides no sample, and gets its twin's mode (any other would give the labels a
+        contradiction no score chose; a centres file of them was refused on reading back).
     """
     n_modes = len(mode_ids)
     sizes = np.asarray(sizes, dtype=np.int64)
@@ -279,12 +326,14 @@ def label_clusters(
     else:
         descent.start(np.array(best, dtype=np.int64), scores[best])
     chosen = np.array(best, dtype=np.int64)
+    for c, twin in (twins or {}).items():  # no sample: the score is the same
+        chosen[c] = chosen[twin]
     alternatives = descent.alternatives()
     total = descent.score
     undecided = _undecided(chosen, total, scores, descent, alternatives, sizes)
     notes = (
         f"clusters labelled by {method} over cluster -> mode maps: {what} {total:.4g}{why}",
-        *cluster_notes(chosen, sizes, mode_ids, alternatives=alternatives, what=what),
+        *cluster_notes(chosen, sizes, mode_ids, alternatives=alternatives, what=what, twins=twins),
         *_kept_modes(chosen, alternatives, total, sizes, mode_ids, what),
         *_undecided_notes(undecided, chosen, sizes, mode_ids, what, total),
     )
@@ -568,6 +617,7 @@ def cluster_notes(
     *,
     alternatives: FloatArray | None = None,
     what: str = "score",
+    twins: Mapping[int, int] | None = None,
 ) -> list[str]:
     """One line per cluster (its samples and mode) and per mode that no cluster decides.
 
@@ -584,12 +634,21 @@ def cluster_notes(
         the other modes; ``None`` for labels not chosen by a score (a centres file's).
     what:
         Name of the score.
+    twins:
+        Cluster → the earlier cluster of the same decision values (:func:`decision_twins`),
+        named as why it decides no sample.
     """
     notes: list[str] = []
     for c, chosen in enumerate(modes[:MOST_CLUSTER_NOTES]):
         mode = mode_ids[chosen]
         if sizes[c] == 0:
-            notes.append(f"cluster {c + 1} decides no sample: unused (labelled '{mode}')")
+            twin = (twins or {}).get(c)
+            why = (
+                ""
+                if twin is None
+                else f" (its decision values are cluster {twin + 1}'s, which eq. (3) decides)"
+            )
+            notes.append(f"cluster {c + 1} decides no sample{why}: unused (labelled '{mode}')")
             continue
         others = (
             ""

@@ -60,7 +60,7 @@ from hybridlog.cluster.classifier import (
     manual_labels,
     stored_classifier,
 )
-from hybridlog.cluster.labels import cluster_notes, label_clusters
+from hybridlog.cluster.labels import cluster_notes, decision_twins, label_clusters
 from hybridlog.cluster.subtractive import ClusteringOptionError
 from hybridlog.errors import DataShortError, LogError, ModelError, OptionError
 from hybridlog.estimators.lmi import ObserverGains, observer_gains
@@ -216,13 +216,20 @@ def mode_classifier(
                 f"φ(k) = [{', '.join(names)}]: {err}"
             ) from err
     if options.cluster_modes:
-        modes = manual_labels(options.cluster_modes, model.mode_ids, len(classifier.centers))
+        modes = manual_labels(
+            options.cluster_modes,
+            model.mode_ids,
+            len(classifier.centers),
+            decision_values=classifier.decision_values,
+        )
         sizes = classifier.details["sizes"]
         return classifier.labelled(
             modes,
             (
                 f"labels given by cluster_modes={options.cluster_modes}",
-                *cluster_notes(modes, sizes, model.mode_ids),
+                *cluster_notes(
+                    modes, sizes, model.mode_ids, twins=decision_twins(classifier.decision_values)
+                ),
             ),
         )
     if classifier.cluster_modes is not None:
@@ -237,6 +244,7 @@ def mode_classifier(
             classifier.details["sizes"],
             what="one-step prediction SSE",
             samples=signals.n_samples,  # each map's score runs the observer over the log
+            twins=decision_twins(classifier.decision_values),
         )
         populated = int(np.count_nonzero(np.asarray(classifier.details["sizes"]) > 0))
         if labels.undecided and len(labels.undecided) == populated:

@@ -111,31 +111,46 @@ def certificate(
     -------
     tuple
         ``(margin, decay_bound, spectral radii)`` as in :class:`ObserverGains`; the margin
-        is negative when the certificate fails (or an ``S_i`` is not positive definite).
+        is negative when the certificate fails, and ``-inf`` (with an infinite bound) when
+        no ``S_i`` has a positive eigenvalue, or a gain, ``A_i − L_i C_i`` or ``S_i`` is
+        not finite: a solver's
+        inaccurate solution holding NaN was "certified" (``min`` passes NaN over, margin
+        inf), and ``S_i`` all negative definite gave a positive margin (divided by a
+        negative scale); an infinite gain ended as an unexpected ``LinAlgError``.
     """
     s = A.shape[0]
-    closed = A - L @ C
-    scale = max(float(np.linalg.eigvalsh(S[i]).max()) for i in range(s))
-    margin = np.inf
-    bound = 0.0
-    for i in range(s):
-        smallest = float(np.linalg.eigvalsh(S[i]).min())
-        margin = min(margin, smallest / scale)
-        if smallest <= 0.0:
-            bound = np.inf
-            continue
-        values, vectors = np.linalg.eigh(S[i])
-        inverse_root = vectors @ np.diag(values**-0.5) @ vectors.T
-        for j in range(s):
-            contraction = closed[i].T @ S[j] @ closed[i]
-            difference = decay_rate**2 * S[i] - contraction
-            margin = min(
-                margin, float(np.linalg.eigvalsh((difference + difference.T) / 2).min()) / scale
-            )
-            normalised = inverse_root @ contraction @ inverse_root
-            top = float(np.linalg.eigvalsh((normalised + normalised.T) / 2).max())
-            bound = max(bound, float(np.sqrt(max(top, 0.0))))
+    with np.errstate(over="ignore", invalid="ignore"):
+        closed = A - L @ C
+    if not (np.all(np.isfinite(closed)) and np.all(np.isfinite(S))):
+        return -np.inf, np.inf, np.full(s, np.inf)
     radii = np.array([float(np.abs(np.linalg.eigvals(closed[i])).max()) for i in range(s)])
+    scale = max(float(np.linalg.eigvalsh(S[i]).max()) for i in range(s))
+    if not scale > 0.0:  # no S_i has a positive eigenvalue: nothing to normalise by
+        return -np.inf, np.inf, radii
+    margins: list[float] = []  # np.min below: a NaN among them is no margin (min() skips it)
+    bound = 0.0
+    with np.errstate(over="ignore", invalid="ignore"):
+        for i in range(s):
+            smallest = float(np.linalg.eigvalsh(S[i]).min())
+            margins.append(smallest / scale)
+            if not smallest > 0.0:
+                bound = np.inf
+                continue
+            values, vectors = np.linalg.eigh(S[i])
+            inverse_root = vectors @ np.diag(values**-0.5) @ vectors.T
+            for j in range(s):
+                contraction = closed[i].T @ S[j] @ closed[i]
+                if not np.all(np.isfinite(contraction)):  # the products overflowed
+                    return -np.inf, np.inf, radii
+                difference = decay_rate**2 * S[i] - contraction
+                symmetric = (difference + difference.T) / 2
+                margins.append(float(np.linalg.eigvalsh(symmetric).min()) / scale)
+                normalised = inverse_root @ contraction @ inverse_root
+                top = float(np.linalg.eigvalsh((normalised + normalised.T) / 2).max())
+                bound = max(bound, float(np.sqrt(max(top, 0.0))))
+    margin = float(np.min(margins))
+    if not np.isfinite(margin):
+        return -np.inf, np.inf, radii
     return float(margin), bound, radii
 
 
@@ -205,6 +220,8 @@ def _certified(A: FloatArray, C: FloatArray, decay_rate: float, solver: str) -> 
             spectral_radii=radii,
             solver=solver,
         )
+    if margin == -np.inf:
+        return f"{solver}: certificate failed (its solution is not finite, or no S_i is positive)"
     return f"{solver}: certificate failed (margin {margin:.3g})"
 
 

@@ -206,10 +206,12 @@ def _check_consistent(
 ) -> None:
     """Refuse a file whose recorded keys contradict its centres (edited by hand).
 
-    ``output_lags``/``input_lags`` must give its ``regressors``, ``decision_values`` must be
-    its centres' ``y(k)`` components (eq. (3) decides by those, so an edited
-    ``decision_values`` was ignored without a word), and its ``parameters`` must be values of
-    the options (``"radius": "big"`` was reported as the radius the centres were fitted with),
+    ``output_lags``/``input_lags`` must give its ``regressors``, its ``modes`` must give
+    centres of the same ``y(k)`` one mode (:func:`~hybridlog.cluster.labels.twin_conflict`),
+    ``decision_values`` must be its centres' ``y(k)`` components (eq. (3) decides by those,
+    so an edited ``decision_values`` was ignored without a word), and its ``parameters``
+    must be values of the options (``"radius": "big"`` was reported as the radius the
+    centres were fitted with),
     ``clusters`` the number of centres.
     """
     from hybridlog.cluster.regressors import RegressorSpec
@@ -237,6 +239,16 @@ def _check_consistent(
                 f"{options.algorithm}.centers (eq. (3) decides by those): edit both alike, or "
                 f"leave {key} out"
             )
+    if entry.modes is not None:  # before the log is read, as stored_classifier refuses it
+        import numpy as np
+
+        from hybridlog.cluster.labels import twin_conflict
+
+        modes = [centers.mode_ids.index(mode) for mode in entry.modes]
+        decision = entry.centers[:, own.decision_columns(len(model.outputs))]
+        conflict = twin_conflict(np.array(modes), decision, centers.mode_ids)
+        if conflict is not None:
+            raise OptionError(f"centers={source}: {options.algorithm}.modes: {conflict}")
     prefix = f"centers={source}: {options.algorithm}.parameters"
     sources = {k: OptionSource(f"{prefix}.{k}", text=False) for k in entry.parameters}
     parse_options(type(options), entry.parameters, estimator=options.algorithm, sources=sources)

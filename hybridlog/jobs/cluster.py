@@ -480,7 +480,9 @@ def _classifier(
     fitted = mode_classifier(model, signals, dataclasses.replace(options, cluster_modes=""))
     origin = _labels_origin(model, options, given)
     check_cluster_modes(model, options, clusters=len(fitted.centers), origin=origin)
-    modes = manual_labels(text, model.mode_ids, len(fitted.centers))
+    modes = manual_labels(
+        text, model.mode_ids, len(fitted.centers), decision_values=fitted.decision_values
+    )
     return fitted.labelled(modes, (f"labels given by cluster_modes={text}",))
 
 

@@ -13,7 +13,7 @@ import pytest
 from hybridlog.cluster.centers_file import centers_json, parse_centers
 from hybridlog.cluster.classifier import fit_classifier, manual_labels, stored_classifier
 from hybridlog.cluster.kmeans import KMeansParameters, kmeans_clustering
-from hybridlog.cluster.labels import decide_clusters, label_clusters
+from hybridlog.cluster.labels import decide_clusters, decision_twins, label_clusters
 from hybridlog.cluster.regressors import RegressorSpec, parse_lags, regression_vectors
 from hybridlog.cluster.subtractive import SubtractiveOptions
 from hybridlog.errors import OptionError, OutputError
@@ -347,7 +347,8 @@ def test_stored_labels_are_the_models_modes_or_refused():
     with pytest.raises(OptionError, match=r"^mem.json: mode_ids: expected a list of strings$"):
         parse_centers(centers_json(missing), "mem.json")
     # a duplicated centre decides nothing: the notes say so, and which mode is never decided
-    twice = dict(_STORED, chiu={"centers": [[4.0], [4.0]], "modes": ["b", "a"]})
+    # (given another mode it is refused: test_twins_given_other_modes_by_hand_are_refused)
+    twice = dict(_STORED, chiu={"centers": [[4.0], [4.0]], "modes": ["b", "b"]})
     found = stored_classifier(
         parse_centers(centers_json(twice), "mem.json"),
         "chiu",
@@ -359,7 +360,8 @@ def test_stored_labels_are_the_models_modes_or_refused():
     )
     assert found.labelling[1:] == (
         "cluster 1 (300 samples) -> mode 'b'",
-        "cluster 2 decides no sample: unused (labelled 'a')",
+        "cluster 2 decides no sample (its decision values are cluster 1's, which eq. (3) "
+        "decides): unused (labelled 'b')",
         "mode 'a' has no cluster: it is never decided",
     )
 
@@ -574,6 +576,13 @@ def test_an_unknown_key_as_long_as_a_file_is_quoted_cut():
         (
             lambda d: d.update(kmeans={**d["chiu"], "parameters": {"clusters": 3}}),
             r"kmeans.parameters.clusters: 3, but the file holds 2 kmeans centres",
+        ),
+        (  # a copy of centre 1 labelled otherwise: refused before the log is read too
+            lambda d: d["chiu"].update(
+                centers=[[4.0], [0.0], [4.0]], decision_values=None, modes=["2", "1", "1"]
+            ),
+            r"chiu.modes: clusters 1 and 3 have the same decision values y\* = \[4\] but the "
+            r"modes '2' and '1'",
         ),
     ],
 )
@@ -808,3 +817,57 @@ def test_the_notes_of_many_clusters_list_the_first_and_count_the_rest() -> None:
     )
     # a handful of clusters is listed in full, as before
     assert len(cluster_notes(modes[:4], sizes[:4], ["1", "2"])) == 4
+
+
+_TWINS = {  # centres whose y(k) (the decision values, eq. (3)) repeat an earlier centre's
+    "a copy of a centre": [[0.0, 1.0], [4.0, 2.0], [0.0, 1.0]],
+    "another u(k-1) at the same y(k)": [[0.0, 1.0], [4.0, 2.0], [0.0, -1.0]],
+    "y(k) = -0.0 beside 0.0": [[0.0, 1.0], [4.0, 2.0], [-0.0, 3.0]],
+}
+
+
+@pytest.mark.parametrize("kind", list(_TWINS))
+def test_twins_given_other_modes_by_hand_are_refused(kind):
+    """Clusters of the same decision values cannot be told apart by eq. (3): every sample
+    went to the first, so a centres file (or cluster_modes) giving the later one another
+    mode was used as the order of the centres says, the later one's mode never decided."""
+    y, _ = _two_blobs()
+    spec = RegressorSpec(output_lags=(0,), input_lags=(1,))
+    content = copy.deepcopy(_STORED)
+    content.update(regressors=["y(k)", "u(k-1)"], input_lags=[1])
+    content["scaling"] = {"lower": [-0.5, -1.0], "upper": [4.5, 3.0]}
+    content["chiu"] = {"centers": _TWINS[kind], "modes": ["a", "b", "b"]}
+    stored = parse_centers(centers_json(content), "mem.json")
+    names = ["y(k)", "u(k-1)"]
+    with pytest.raises(
+        OptionError,
+        match=r"^mem.json: chiu.modes: clusters 1 and 3 have the same decision values y\* = "
+        r"\[0\] but the modes 'a' and 'b': eq. \(3\) cannot tell them apart",
+    ):
+        stored_classifier(
+            stored, "chiu", spec, y, names=names, mode_ids=["a", "b"], source="mem.json"
+        )
+    content["chiu"]["modes"] = ["a", "b", "a"]  # one mode: the order of the centres is moot
+    stored = parse_centers(centers_json(content), "mem.json")
+    found = stored_classifier(
+        stored, "chiu", spec, y, names=names, mode_ids=["a", "b"], source="mem.json"
+    )
+    assert found.details["sizes"].tolist() == [150, 150, 0]
+    values = np.array(_TWINS[kind])[:, :1]
+    with pytest.raises(OptionError, match=r"^cluster_modes=a,b,b: clusters 1 and 3 have"):
+        manual_labels("a,b,b", ["a", "b"], 3, decision_values=values)
+    assert manual_labels("a,b,a", ["a", "b"], 3, decision_values=values).tolist() == [0, 1, 0]
+    # labelled from the data, a twin takes its twin's mode (so hybridlog's own centres
+    # file of them reads back), and the note says why it decides no sample
+    labels = label_clusters(
+        3,
+        ["a", "b"],
+        lambda labels: float(labels[0] != 0) + float(labels[1] != 1),
+        np.array([150, 150, 0]),
+        twins=decision_twins(values),
+    )
+    assert labels.modes.tolist() == [0, 1, 0]
+    assert labels.notes[-1] == (
+        "cluster 3 decides no sample (its decision values are cluster 1's, which eq. (3) "
+        "decides): unused (labelled 'a')"
+    )

@@ -126,3 +126,35 @@ def test_an_output_of_huge_or_tiny_gain_sees_what_it_sees_at_gain_one(gain):
             observer_gains(A[None], np.array([[[1.0, gain, 0.0, 0.0]]]), ["1"], decay_rate=1.0)
         assert "admit a gain in theory" in str(refused.value)
         assert "not detectable" not in str(refused.value) and "nearer 1" not in str(refused.value)
+
+
+def _unvouched_solutions():
+    """Gains and S_i of one stable mode that no certificate may vouch for, by kind."""
+    good = np.eye(2)[None]
+    return {
+        "S negative definite": (np.zeros((1, 2, 1)), -good),
+        "S zero": (np.zeros((1, 2, 1)), np.zeros((1, 2, 2))),
+        "S NaN": (np.zeros((1, 2, 1)), np.full((1, 2, 2), np.nan)),
+        "S infinite": (np.zeros((1, 2, 1)), np.full((1, 2, 2), np.inf)),
+        "gain infinite": (np.full((1, 2, 1), np.inf), good),
+        "gain NaN": (np.full((1, 2, 1), np.nan), good),
+        "products overflow": (np.full((1, 2, 1), 1e200), good),
+    }
+
+
+@pytest.mark.parametrize("kind", list(_unvouched_solutions()))
+def test_a_solution_the_numbers_cannot_vouch_for_is_no_certificate(kind, monkeypatch):
+    """S_i all negative definite gave margin 1.0 (divided by a negative scale), NaN in S a
+    margin inf (min() passed NaN over): both 'certified'; S = 0 raised ZeroDivisionError and
+    an infinite gain LinAlgError, 'unexpected' errors."""
+    from hybridlog.estimators import lmi
+
+    A = np.array([[[0.5, 0.0], [0.0, 0.5]]])
+    C = np.array([[[1.0, 0.0]]])
+    gains, lyapunov = _unvouched_solutions()[kind]
+    with np.errstate(all="raise"):  # the CLI escalates numerical warnings to errors
+        margin, _, _ = certificate(A, C, gains, lyapunov)
+    assert margin < 0.0
+    monkeypatch.setattr(lmi, "_solve", lambda *args: (gains, lyapunov))
+    with pytest.raises(ObserverDesignError, match="'1'"):
+        observer_gains(A, C, ["1"])
