@@ -244,17 +244,25 @@ def _wants_plots(job: BatchJob, gates: Sequence[Gate], report: Report) -> bool:
     return plots(report) if callable(plots) else plots
 
 
-def _intact(folder: Path) -> bool:
+def _intact(folder: Path, table_format: str) -> bool:
     """Whether ``folder`` still holds every file hybridlog wrote there, each unchanged.
 
     A report folder missing its timeline, or whose report.json was edited since (a VAF
     raised by hand), is not a report of this run whatever its provenance says: reused, its
     numbers would reach the summaries and the gates.  A folder whose marker lists no files
-    (hidden files left out of a CI artifact) cannot be checked, and is taken as before.
+    (hidden files left out of a CI artifact) cannot be checked file by file: it is taken
+    while it holds the files every report has (report.json, report.md and both tables in
+    ``table_format``); one that lost any was "skipped" with its timeline gone.
     """
     written = recorded_files(folder)
     if written is None:
-        return True
+        every = (
+            "report.json",
+            "report.md",
+            f"timeline.{table_format}",
+            f"estimates.{table_format}",
+        )
+        return all((folder / name).is_file() for name in every)
     return all((folder / name).is_file() for name in written) and not edited_files(folder)
 
 
@@ -281,7 +289,7 @@ def _reusable(job: BatchJob, folder: Path, log: str, log_sha256: str) -> LogOutc
     run = recorded.pop("run", None)
     if recorded != job.provenance(log_sha256):
         return None
-    if not _intact(folder):
+    if not _intact(folder, job.table_format):
         return None  # redone: replaced if only a file is gone, refused if one was edited
     # checked without loading the model, so that resuming a finished batch costs no start-up
     gates = parse_gates(job.fail_under, job.fail_over) if job.plots == "failed" else []

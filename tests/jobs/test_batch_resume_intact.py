@@ -73,3 +73,20 @@ def test_a_folder_whose_marker_is_gone_is_still_reused(tmp_path: Path) -> None:
     assert set(_statuses(logs, out).values()) == {"done"}
     (out / "s1.csv" / ".hybridlog").unlink()
     assert _statuses(logs, out)["s1.csv"] == "skipped"
+
+
+def test_a_folder_without_its_marker_that_lost_a_table_is_not_skipped(tmp_path: Path) -> None:
+    # "skipped" with its timeline gone: the files every report has are still asked for
+    logs = _logs(tmp_path / "logs")
+    out = tmp_path / "out"
+    assert set(_statuses(logs, out, table_format="parquet").values()) == {"done"}
+    for name in ("s1.csv", "s2.csv"):
+        (out / name / ".hybridlog").unlink()
+    (out / "s2.csv" / "timeline.parquet").unlink()
+    outcome = run_batch(logs, TANK, out_dir=out, estimator="imm", table_format="parquet")
+    s1, s2, s3 = outcome.logs
+    assert (s1.status, s3.status) == ("skipped", "skipped")
+    # nothing to tell its files from the user's: failed, naming the folder, nothing replaced
+    assert s2.status == "failed" and s2.error is not None
+    assert "does not list what hybridlog wrote there" in s2.error
+    assert (out / "s2.csv" / "report.json").is_file()
