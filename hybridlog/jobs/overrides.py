@@ -230,6 +230,14 @@ def prepare_estimators(
                     "([simulation.parameters]), which only simulate plays; an estimator "
                     "reads the log, not the scenario"
                 )
+            owner, dot, option = name.partition(".")
+            if dot and owner in ESTIMATORS:  # --set imm.beam=4: "did you mean 'beam'?" at best
+                raise OptionError(
+                    f"{flag}: --set takes an estimator's option by its name alone (--set "
+                    f"{excerpt(option)[1:-1]}={excerpt(value)[1:-1]}), for every estimator run "
+                    f"that has it; for {owner} alone, set it under [estimators.{owner}] in the "
+                    "model file"
+                )
             options = "; ".join(f"options of {e}: {', '.join(k)}" for e, k in declared.items())
             candidates = [*model.parameters, *(n for k in declared.values() for n in k)]
             raise OptionError(

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hybridlog.errors import OptionError
 from hybridlog.estimators import get_estimator
 from hybridlog.estimators.offline_options import lacks, not_offered
 from hybridlog.jobs.compare import compare
@@ -67,3 +68,24 @@ def test_the_comparison_and_the_terminal_say_what_a_set_reached(tmp_path: Path) 
     result = run([*args, "--out", str(tmp_path / "plain")])
     assert "reaches" not in result.stderr
     assert "Given to some" not in (tmp_path / "plain" / "comparison.md").read_text()
+
+
+def test_an_option_named_after_its_estimator_says_how_set_takes_it() -> None:
+    # "--set imm.beam=4": "neither a parameter ... nor an estimator option ...; did you mean
+    # 'unknown_mode'?" for unknown-mode.beam, a name no estimator has
+    for names, sets, owner in (
+        (["imm", "hstf"], ["imm.beam=4"], "imm"),
+        (["hstf"], ["imm.beam=4"], "imm"),
+        (["imm"], ["unknown-mode.beam=3"], "unknown-mode"),
+    ):
+        try:
+            _reach("three_tank_hstf", names, sets)
+        except OptionError as err:
+            option, value = sets[0].split(".", 1)[1].split("=")
+            assert str(err) == (
+                f"--set {sets[0]}: --set takes an estimator's option by its name alone (--set "
+                f"{option}={value}), for every estimator run that has it; for {owner} alone, set "
+                f"it under [estimators.{owner}] in the model file"
+            )
+        else:
+            raise AssertionError(f"{sets} taken")
