@@ -61,11 +61,16 @@ The output prediction of row ``k`` is
 ``h(σ(k), x̂(t_k))``, made before ``y(k)`` is used; row 0 is the prior (the model's initial
 state).  Mode probabilities are the one-hot σ; there is no covariance (variances NaN).
 
-The condition number κ₁(Q) (1-norm) is computed at every sample; where it exceeds the
-``condition_limit`` option a note says when and how badly (the correction ``Q⁻¹K(y − h)``
-is then inaccurate, and infinite where Q is singular).  The whole loop -- every integration
-step, the jumps, the conditioning -- is one compiled function generated for the model
-(:func:`observer_source`), cached on disk like the model's functions.
+The condition number κ₁(Q) (1-norm) is computed at every sample and at the start of every
+integration step whose correction uses ``Q⁻¹``, a sample's value the largest over the
+interval into it and the sample itself; where it exceeds the ``condition_limit`` option a
+note says when and how badly (the correction ``Q⁻¹K(y − h)`` is then inaccurate, and
+infinite where Q is singular).  At the samples alone, an estimate that crossed a singular
+point of ``Q`` between two of them (``h = x1**3`` as ``x̂1`` crosses 0) was thrown far off
+by the correction there, ran away to ``1e40``, and the warning named another time.  The
+whole loop -- every integration step, the jumps, the conditioning -- is one compiled
+function generated for the model (:func:`observer_source`), cached on disk like the model's
+functions.
 """
 
 from __future__ import annotations
@@ -193,22 +198,49 @@ def _solve(M, b, n, W, out):
 
 
 def _condition(M, n, W, e, col):
-    """The 1-norm condition number of M (inf when singular)."""
+    """The 1-norm condition number of M (inf when singular): one factorisation, n solves.
+
+    As :func:`_solve` eliminates (partial pivoting), its multipliers kept below W's
+    diagonal and the rows' order in ``e``; each column of M^-1 then costs two triangular
+    solves, not an elimination of its own (the condition is taken at every integration step).
+    """
     norm = 0.0
     for j in range(n):
         s = 0.0
         for i in range(n):
             s += abs(M[i, j])
+            W[i, j] = M[i, j]
         norm = max(norm, s)
+    for i in range(n):
+        e[i] = i
+    for c in range(n):
+        p = c
+        for r in range(c + 1, n):
+            if abs(W[r, c]) > abs(W[p, c]):
+                p = r
+        if W[p, c] == 0.0:
+            return math.inf
+        if p != c:
+            for j in range(n):
+                W[c, j], W[p, j] = W[p, j], W[c, j]
+            e[c], e[p] = e[p], e[c]
+        for r in range(c + 1, n):
+            m = W[r, c] / W[c, c]
+            W[r, c] = m
+            for j in range(c + 1, n):
+                W[r, j] -= m * W[c, j]
     inverse = 0.0
     for j in range(n):
-        for i in range(n):
-            e[i] = 0.0
-        e[j] = 1.0
-        if _solve(M, e, n, W, col) == 0:
-            return math.inf
+        for i in range(n):  # the unit vector j in the eliminated rows' order, through L
+            col[i] = 1.0 if e[i] == j else 0.0
+            for a in range(i):
+                col[i] -= W[i, a] * col[a]
         s = 0.0
-        for i in range(n):
+        for i in range(n - 1, -1, -1):  # through U
+            t = col[i]
+            for a in range(i + 1, n):
+                t -= W[i, a] * col[a]
+            col[i] = t / W[i, i]
             s += abs(col[i])
         inverse = max(inverse, s)
     return norm * inverse
@@ -275,9 +307,14 @@ def observe(time, modes, inputs, outputs, x0, gain, substeps, rk4, first_order, 
                 Q(q, x, u, Qm)  # its first row is dh/dx (Phi_1 = h)
                 for i in range(n):
                     slope += Qm[0, i] * k1[i]
+        worst = 0.0  # kappa_1 of the Q each integration step's correction starts from
         for s in range(substeps):
             tau = s * step
             _rhs(q, x, u, y + slope * tau, inject, gain, n, k1, hv, Qm, W, r, v)
+            if inject:  # Qm is Q at x: between samples the estimate may cross where Q is singular
+                kappa = _condition(Qm, n, W, r, v)
+                if not kappa <= worst:
+                    worst = kappa
             if rk4:
                 y_half = y + slope * (tau + 0.5 * step)
                 for i in range(n):
@@ -299,7 +336,8 @@ def observe(time, modes, inputs, outputs, x0, gain, substeps, rk4, first_order, 
         h(q, x, inputs[k + 1], hv)
         out_prediction[k + 1] = hv[0]
         Q(q, x, inputs[k + 1], Qm)
-        out_condition[k + 1] = _condition(Qm, n, W, r, v)
+        kappa = _condition(Qm, n, W, r, v)
+        out_condition[k + 1] = kappa if not kappa <= worst else worst  # NaN stays NaN
     return None
 
 
@@ -749,7 +787,8 @@ def _notes(
         more = f" and {len(runs) - 3} more intervals" if len(runs) > 3 else ""
         notes.append(
             f"WARNING: Q(sigma, x) is ill-conditioned (kappa_1 > {limit:.3g}) on "
-            f"{int(bad.sum())} samples ({where}{more}; worst {condition[worst]:.3g} at t = "
+            f"{int(bad.sum())} sample{'s' if bad.sum() > 1 else ''} (or the intervals into "
+            f"them: {where}{more}; worst {condition[worst]:.3g} at t = "
             f"{format_time(time_s[worst])} s): the correction Q^-1 K (y - h) is unreliable "
             "there"
         )

@@ -890,3 +890,56 @@ def test_intervals_a_switch_opened_are_counted_and_a_log_of_them_warned_of(switc
     assert notes[-1].startswith(
         f"WARNING: the observer corrected its estimate on only 0 of {intervals:,} intervals"
     )
+
+
+CUBIC = """
+name = "cubic"
+time = "continuous"
+dt = 0.01
+integration = {method = "rk4", step = 0.001}
+states = ["x1", "x2"]
+outputs = ["y"]
+inputs = []
+
+[modes.a]
+dx = ["x2", "-x1"]
+h = ["x1**3"]
+
+[initial]
+state = [1.0, %s]
+mode = "a"
+
+[estimators.switching-observer]
+eigenvalues = "-5,-6"
+"""
+
+
+@pytest.mark.parametrize("x2", ["0.5", "0.3", "-0.4"])
+def test_q_singular_between_samples_is_warned_where_the_estimate_crossed(x2):
+    """Q = [[3x1², 0], [6x1x2, 3x1²]] is singular at x1 = 0, which x̂1 crosses between samples.
+
+    κ₁(Q) was taken at the samples only: the correction of the integration steps next to the
+    crossing, with κ₁ past 1e8, threw the estimate off (to 1e40 by 10 s, still finite, so no
+    divergence), and the warning named a sample of 1e6 elsewhere, or nothing.  Every
+    crossing of 0 by x̂1 must lie in an interval the warning names.
+    """
+    model = parse_model(CUBIC % x2, origin="cubic.toml")
+    times = np.arange(1001) * 0.01
+    signals = AlignedSignals(
+        source="cubic.csv",
+        time=times,
+        input_names=(),
+        output_names=("y",),
+        inputs=np.zeros((times.size, 0)),
+        outputs=(np.cos(times) ** 3).reshape(-1, 1),
+    )
+    result = prepare(model, "switching-observer").run(model, signals)
+    (warning,) = [n for n in result.notes if n.startswith("WARNING: Q(sigma, x)")]
+    spans = [(float(a), float(b)) for a, b in re.findall(r"t = ([0-9.]+)\.\.([0-9.]+) s", warning)]
+    estimate = result.state_means[:, 0]
+    crossings = np.flatnonzero(np.sign(estimate[:-1]) != np.sign(estimate[1:])) + 1
+    assert crossings.size, "the estimate never crossed the singular line"
+    for k in crossings[:3]:  # the warning names the first three runs of samples
+        assert any(a <= times[k] <= b for a, b in spans), (times[k], warning)
+    worst = float(re.search(r"worst ([0-9.e+]+) at", warning).group(1))
+    assert worst > 1e8
