@@ -497,7 +497,11 @@ def mean_where_defined(values: npt.ArrayLike) -> float:
     An undefined entry (NaN: VAF of a constant prediction, fit of a constant measurement)
     is left out; an infinite one (MSE or fit of a prediction that diverged so far that its
     error overflows) makes the mean that infinity: the worst output is never left out, so
-    a gate on the mean cannot pass while one output diverged.
+    a gate on the mean cannot pass while one output diverged.  The mean of finite values is
+    finite (it lies between them) even where their sum overflows float64: the fits of two
+    outputs of -1.3e308 % each are a mean of -1.3e308 %, taken over the values scaled by the
+    largest (``analyze`` had stopped with "numerical trouble ... overflow encountered in
+    reduce").
 
     Parameters
     ----------
@@ -515,4 +519,11 @@ def mean_where_defined(values: npt.ArrayLike) -> float:
     if infinite:
         return infinite.pop() if len(infinite) == 1 else float("nan")
     finite = arr[np.isfinite(arr)]
-    return float(np.mean(finite)) if finite.size else float("nan")
+    if not finite.size:
+        return float("nan")
+    with np.errstate(over="ignore"):
+        mean = float(np.mean(finite))
+    if math.isinf(mean):  # the sum overflowed, not the mean: |mean| <= max |v|
+        largest = float(np.max(np.abs(finite)))
+        mean = largest * float(np.mean(finite / largest))
+    return mean

@@ -74,3 +74,48 @@ def test_analyze_of_mathtext_modes_and_a_partial_true_state(tmp_path: Path) -> N
     assert "- x_1: RMSE over 61 of 201 samples" in (out / "report.md").read_text()
     assert report["modes"]["labels"] == list(MODES)
     assert {p.name for p in (out / "plots").iterdir()} == {"outputs.png", "modes.png", "states.png"}
+
+
+HUGE_INPUT_MODEL = """
+name = "huge_input"
+time = "discrete"
+dt = 1.0
+states = ["x1"]
+inputs = ["u"]
+outputs = ["y1", "y2"]
+default_estimator = "imm"
+
+[modes.1]
+A = [[0.0]]
+B = [1.0]
+C = [[1.0], [1.0]]
+
+[modes.2]
+A = [[0.0]]
+B = [1.0]
+C = [[1.0], [1.0]]
+
+[noise]
+process = 1e290
+measurement = 1e290
+
+[initial]
+state = [0.0]
+covariance = 1.0
+mode = "1"
+"""
+
+
+def test_analyze_of_outputs_whose_mean_fit_overflows_a_sum(tmp_path: Path) -> None:
+    """Two outputs of fit -1.33e308 % each: their mean is one, not 'numerical trouble'."""
+    model = tmp_path / "model.toml"
+    model.write_text(HUGE_INPUT_MODEL, encoding="utf-8")
+    log = tmp_path / "run.csv"
+    spread = [7.5e-163 if k % 2 else -7.5e-163 for k in range(60)]
+    pl.DataFrame({"t": [float(k) for k in range(60)], "u": [1e144] * 60, "y1": spread,
+                  "y2": spread}).write_csv(log)  # fmt: skip
+    out = tmp_path / "out"
+    run(["analyze", str(log), "--model", str(model), "--out", str(out)])
+    report = json.loads((out / "report.json").read_text())
+    fits = [report["outputs"][y]["fit"] for y in ("y1", "y2")]
+    assert fits[0] == fits[1] < -0.9e308 and report["fit"] == fits[0]

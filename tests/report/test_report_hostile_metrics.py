@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
+from collections.abc import Callable
+from fractions import Fraction
 
 import numpy as np
 import pytest
 
-from hybridlog.report import build_report, render_markdown
+from hybridlog.report import build_report, metrics, render_markdown
 from hybridlog.report.gates import evaluate_gates, parse_gates
 
 from .test_report_files import DT, make_run
@@ -67,3 +70,50 @@ def test_an_infinite_state_estimate_is_a_diverged_rmse() -> None:
     )
     (failure,) = evaluate_gates(report, parse_gates(fail_over=["state_rmse.x3=1e300"]))
     assert "diverged" in failure
+
+
+def _alternating(n: int, size: float) -> np.ndarray:
+    return np.where(np.arange(n) % 2 == 0, size, -size)
+
+
+@pytest.mark.parametrize(
+    ("metric", "measured", "predicted"),
+    [
+        # errors of 1.3e154 in both outputs: each MSE 1.69e308, their sum beyond float64
+        ("mse", lambda n: np.zeros(n), lambda n: _alternating(n, 1.3e154)),
+        # a spread of 7.5e-163 against errors of 1e144: each fit -1.33e308 %
+        ("fit", lambda n: _alternating(n, 7.5e-163), lambda n: np.full(n, 1e144)),
+    ],
+    ids=["mse", "fit"],
+)
+def test_a_mean_over_the_outputs_whose_sum_overflows_is_a_number(
+    metric: str, measured: Callable[[int], np.ndarray], predicted: Callable[[int], np.ndarray]
+) -> None:
+    result, signals = make_run(N, seed=4)
+    y = np.column_stack([measured(N), measured(N)])
+    y_hat = np.column_stack([predicted(N), predicted(N)])
+    y_hat[0] = np.nan
+    report = build_report(
+        dataclasses.replace(result, output_predictions=y_hat),
+        dataclasses.replace(signals, outputs=y),
+        log="run.csv",
+        model_name="m",
+        dt=DT,
+    )
+    each = getattr(report.outputs["y1"], metric)
+    assert each is not None and abs(each) > 0.9e308  # two of them overflow a sum
+    assert getattr(report.outputs["y2"], metric) == each
+    assert getattr(report, metric) == each  # the mean of two equal values: "numerical trouble"
+    assert metric not in report.null_reasons
+    json.loads(report.to_json(), parse_constant=lambda c: pytest.fail(c))
+
+
+@pytest.mark.parametrize(
+    "values",
+    [[1.5e308, 1.5e308], [-1.3e308, -1.7e308, -1.7e308], [1e308] * 10 + [math.nan], [1.7e308, 1.0]],
+    ids=repr,
+)
+def test_the_mean_where_defined_never_overflows_its_sum(values: list[float]) -> None:
+    defined = [v for v in values if not math.isnan(v)]
+    exact = sum(Fraction(v) for v in defined) / len(defined)
+    assert metrics.mean_where_defined(values) == pytest.approx(float(exact), rel=1e-15)
