@@ -227,3 +227,13 @@ def test_rmses_over_other_samples_are_no_gain_and_are_named(tmp_path: Path) -> N
         "compared)"
     ) in said["far.csv"]
     assert "state_rmse.x1 = 0.9 (the filter's own: 0.5)" in said["near.csv"]
+
+
+def test_the_median_of_two_huge_rmses_is_a_number() -> None:
+    # statistics.median added the two middle values first: 1e308 and 1.5e308 gave inf
+    huge = [row("a.csv", (0.5, 1e308), (0.6, 1.5e308)), row("b.csv", (0.5, 1.5e308), (0.6, 1e308))]
+    _, rmse = offline_gains(huge, METRICS)
+    assert (rmse.filtered, rmse.offline, rmse.change) == (1.25e308, 1.25e308, 0.0)
+    # the same as statistics.median where its sum holds
+    _, rmse = offline_gains(rows(), METRICS)
+    assert (rmse.filtered, rmse.offline) == ((1.0 + 0.5) / 2, (0.8 + 0.9) / 2)
