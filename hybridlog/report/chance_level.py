@@ -27,6 +27,7 @@ exit 0 and no word; :func:`chance_level_warning` says it of a report,
 from __future__ import annotations
 
 from collections.abc import Mapping
+from decimal import Decimal, localcontext
 
 from hybridlog.report.document import Report
 from hybridlog.report.markdown import WARNING_PREFIX
@@ -54,12 +55,18 @@ def below_chance(confusion: Mapping[str, Mapping[str, int]]) -> str | None:
     kappa = (accuracy - chance) / (1.0 - chance)
     # digits that tell the two apart, and a kappa that is not "-0.00": 50.2 % of random
     # labels against a chance of 50.5 % read "Cohen's kappa -0.00", below chance at zero
-    digits = next(d for d in range(1, 17) if f"{accuracy:.{d + 2}f}" != f"{chance:.{d + 2}f}")
+    shown: tuple[float | Decimal, float | Decimal] = (accuracy, chance)
+    if accuracy == chance:  # apart only beyond float64's digits (some 1e8 samples): exactly
+        with localcontext() as exact:
+            exact.prec = 60
+            shown = (Decimal(hits) / scored, Decimal(agree) / (scored * scored))
+            kappa = float((shown[0] - shown[1]) / (1 - shown[1]))  # not 0: -1e-17
+    digits = next(d for d in range(1, 40) if f"{shown[0]:.{d + 2}f}" != f"{shown[1]:.{d + 2}f}")
     kappa_shown = f"{kappa:.2f}" if kappa <= -0.005 else f"{kappa:.1g}"
     return (
-        f"mode accuracy {100 * accuracy:.{digits}f} % is below chance: estimated modes drawn "
+        f"mode accuracy {100 * shown[0]:.{digits}f} % is below chance: estimated modes drawn "
         f"independently of the true ones, with the same frequencies, would agree on "
-        f"{100 * chance:.{digits}f} % of these {scored:,} samples (Cohen's kappa "
+        f"{100 * shown[1]:.{digits}f} % of these {scored:,} samples (Cohen's kappa "
         f"{kappa_shown}); the estimated modes are anti-correlated with the true ones"
     )
 

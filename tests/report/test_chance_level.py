@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+from fractions import Fraction
 
 import numpy as np
 
@@ -74,3 +75,18 @@ def test_a_kappa_just_below_zero_is_not_printed_as_zero() -> None:
     said = below_chance(hair) or ""
     accuracy, chance = re.findall(r"(\d+\.\d+) %", said)
     assert accuracy != chance and float(accuracy) < float(chance), said
+
+
+def test_below_chance_beyond_float64s_digits_is_said_exactly() -> None:
+    # some 4e8 samples whose accuracy is below chance by 2 / N**2: the two floats are equal,
+    # and looking for the digits that tell them apart raised StopIteration ("unexpected")
+    k = 10**8
+    confusion = {"a": {"a": k, "b": k + 1}, "b": {"a": k + 1, "b": k + 2}}
+    said = below_chance(confusion)
+    assert said is not None
+    accuracy, chance = said.split(" % is below chance")[0], said.split("would agree on ")[1]
+    accuracy = accuracy.removeprefix("mode accuracy ")
+    chance = chance.split(" %")[0]
+    assert accuracy != chance and float(accuracy) == float(chance)
+    assert Fraction(accuracy) < Fraction(chance)
+    assert "(Cohen's kappa -2e-17)" in said
