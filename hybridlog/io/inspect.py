@@ -8,7 +8,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import replace
 from typing import Any
 
-from hybridlog.errors import as_text, excerpt, names_apart
+from hybridlog.errors import LogError, as_text, excerpt, names_apart
 from hybridlog.io.formats import open_log
 from hybridlog.io.mcap_reader import UnfinishedLogError
 from hybridlog.io.options import ReadOptions, log_arguments
@@ -20,7 +20,8 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
 
     An unfinished MCAP file (no footer), or a ROS 2 bag whose MCAP storage file is
     unfinished, is described as far as that file can be read sequentially (the file's own
-    description), with the reason in ``problems``.
+    description), with the reason in ``problems``; one whose sequential read reaches no
+    whole message is a :class:`LogError` saying so.
 
     Parameters
     ----------
@@ -81,7 +82,8 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
     Raises
     ------
     LogError
-        When the file is missing, of an unsupported format, or unreadable.
+        When the file is missing, of an unsupported format, or unreadable (an unfinished
+        MCAP file of no readable message too).
     OptionError
         A ``path`` that is no path, or ``options`` that are no :class:`ReadOptions`.
     """
@@ -89,6 +91,10 @@ def inspect_log(path: str | os.PathLike[str], options: ReadOptions | None = None
     try:
         source = open_log(path, options)
     except UnfinishedLogError as err:
+        if not err.readable:
+            # nothing to describe: said without the hint at --recover, which inspect lacks
+            # (reading on, its sequential read failed as "--recover reads no message")
+            raise LogError(f"{os.fspath(path)}: {err.finding}") from None
         source = open_log(err.file, replace(options, recover=True))
         with source:
             info = source.describe()

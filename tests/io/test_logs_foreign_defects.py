@@ -309,6 +309,28 @@ def test_inspect_describes_unfinished_mcap_storage_and_names_no_option_it_lacks(
         assert not any("--" in problem for problem in info["problems"]), info["problems"]
 
 
+@pytest.mark.parametrize("tenths", [0.3, 1.0])
+def test_inspect_of_an_unfinished_mcap_without_a_readable_message_names_no_option_it_lacks(
+    tmp_path: Path, tenths: float
+) -> None:
+    # inspect read such a file on as --recover does, which found no message and failed with
+    # "--recover reads no message": an option inspect does not have, never given
+    sample = Path(__file__).parents[2] / "sample_logs" / "three_tank_hstf_ros2mcap"
+    bag = tmp_path / "bag"
+    shutil.copytree(sample, bag)
+    storage = bag / f"{sample.name}.mcap"
+    data = storage.read_bytes()
+    storage.write_bytes(data[: int(len(data) * tenths / 10)])
+    bare = tmp_path / "cut.mcap"
+    shutil.copyfile(storage, bare)
+    for log in (bag, bare):
+        with pytest.raises(LogError) as error:
+            inspect_log(log)
+        message = str(error.value)
+        assert message.startswith(f"{log}: ") and "unfinished" in message, message
+        assert "no message" in message and "--" not in message, message
+
+
 def test_a_bag_folder_whose_mcap_rosbags_cannot_index_points_to_the_file(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
