@@ -165,6 +165,21 @@ def drift_observability(
 
 _LOOP = '''
 
+def _pivot(W, c, n):
+    """Partial pivoting at column c: the row of its largest |W[r, c]|, r >= c, swapped into
+    row c; its index (c: none swapped), or -1 when the column is 0 there (singular)."""
+    p = c
+    for r in range(c + 1, n):
+        if abs(W[r, c]) > abs(W[p, c]):
+            p = r
+    if W[p, c] == 0.0:
+        return -1
+    if p != c:
+        for j in range(n):
+            W[c, j], W[p, j] = W[p, j], W[c, j]
+    return p
+
+
 def _solve(M, b, n, W, out):
     """``out = M⁻¹ b``, Gaussian elimination with partial pivoting (W: workspace); 0: singular."""
     for i in range(n):
@@ -172,18 +187,12 @@ def _solve(M, b, n, W, out):
         for j in range(n):
             W[i, j] = M[i, j]
     for c in range(n):
-        p = c
-        for r in range(c + 1, n):
-            if abs(W[r, c]) > abs(W[p, c]):
-                p = r
-        if W[p, c] == 0.0:
+        p = _pivot(W, c, n)
+        if p < 0:
             for i in range(n):
                 out[i] = math.nan
             return 0
-        if p != c:
-            for j in range(n):
-                W[c, j], W[p, j] = W[p, j], W[c, j]
-            out[c], out[p] = out[p], out[c]
+        out[c], out[p] = out[p], out[c]
         for r in range(c + 1, n):
             m = W[r, c] / W[c, c]
             for j in range(c, n):
@@ -214,16 +223,10 @@ def _condition(M, n, W, e, col):
     for i in range(n):
         e[i] = i
     for c in range(n):
-        p = c
-        for r in range(c + 1, n):
-            if abs(W[r, c]) > abs(W[p, c]):
-                p = r
-        if W[p, c] == 0.0:
+        p = _pivot(W, c, n)
+        if p < 0:
             return math.inf
-        if p != c:
-            for j in range(n):
-                W[c, j], W[p, j] = W[p, j], W[c, j]
-            e[c], e[p] = e[p], e[c]
+        e[c], e[p] = e[p], e[c]
         for r in range(c + 1, n):
             m = W[r, c] / W[c, c]
             W[r, c] = m
@@ -345,6 +348,7 @@ dx = _jit(dx)
 h = _jit(h)
 Q = _jit(Q)
 reset = _jit(reset)
+_pivot = _jit(_pivot)
 _solve = _jit(_solve)
 _condition = _jit(_condition)
 _rhs = _jit(_rhs)

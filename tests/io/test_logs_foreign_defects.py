@@ -283,17 +283,24 @@ def test_recover_that_reads_no_message_says_so(
     assert not out.exists()
 
 
+def _cut_bag(folder: Path, share: float) -> tuple[Path, Path]:
+    """A copy of the sample ROS 2 bag of MCAP storage whose storage file keeps ``share`` of
+    its bytes: the bag and that file."""
+    sample = Path(__file__).parents[2] / "sample_logs" / "three_tank_hstf_ros2mcap"
+    bag = folder / "bag"
+    shutil.copytree(sample, bag)
+    storage = bag / f"{sample.name}.mcap"
+    data = storage.read_bytes()
+    storage.write_bytes(data[: int(len(data) * share)])
+    return bag, storage
+
+
 def test_inspect_describes_unfinished_mcap_storage_and_names_no_option_it_lacks(
     tmp_path: Path,
 ) -> None:
     # inspect has no --recover: it reads an unfinished MCAP file sequentially anyway, and
     # refused a ROS 2 bag whose storage file is unfinished with a hint at --recover.
-    sample = Path(__file__).parents[2] / "sample_logs" / "three_tank_hstf_ros2mcap"
-    bag = tmp_path / "bag"
-    shutil.copytree(sample, bag)
-    storage = bag / f"{sample.name}.mcap"
-    data = storage.read_bytes()
-    storage.write_bytes(data[: len(data) * 9 // 10])
+    bag, storage = _cut_bag(tmp_path, 9 / 10)
     # the commands that read to analyse have --recover
     with pytest.raises(LogError) as error:
         load_signals(bag, SignalSpec(inputs=("u",), outputs=("y1",), mode_ids=("1",), dt=1.0))
@@ -315,12 +322,7 @@ def test_inspect_of_an_unfinished_mcap_without_a_readable_message_names_no_optio
 ) -> None:
     # inspect read such a file on as --recover does, which found no message and failed with
     # "--recover reads no message": an option inspect does not have, never given
-    sample = Path(__file__).parents[2] / "sample_logs" / "three_tank_hstf_ros2mcap"
-    bag = tmp_path / "bag"
-    shutil.copytree(sample, bag)
-    storage = bag / f"{sample.name}.mcap"
-    data = storage.read_bytes()
-    storage.write_bytes(data[: int(len(data) * tenths / 10)])
+    bag, storage = _cut_bag(tmp_path, tenths / 10)
     bare = tmp_path / "cut.mcap"
     shutil.copyfile(storage, bare)
     for log in (bag, bare):
